@@ -1,0 +1,35 @@
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <string>
+
+#include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/parameters.hpp"
+
+namespace mac_registration {
+
+// Receives each maximal clique as it is found: node ids in ascending order. Cliques are streamed, never
+// stored by the search.
+using CliqueVisitor = std::function<void(const int* nodes, std::size_t size)>;
+
+struct CliqueSearchStats {
+  std::size_t cliques = 0;         // cliques streamed over all searches
+  int pruning_rounds = 0;          // searches repeated on a pruned graph
+  bool complete = true;            // the last search enumerated every maximal clique of its graph
+  bool hit_count_limit = false;    // some search stopped at max_cliques
+  bool hit_time_limit = false;     // the time budget ran out
+  std::size_t nodes_searched = 0;  // non-isolated nodes in the last search
+  std::string error;               // igraph's message when a search failed (not a bound), else empty
+};
+
+// Maximal cliques of size >= min_clique_size through igraph's callback search (Eppstein's Bron-Kerbosch
+// variant). Bounded by count and time: when a bound stops a search, the graph is pruned to its strongest
+// nodes (highest sum of edge weights) and searched again, up to max_pruning_rounds times, so that a dense
+// clean graph costs a bounded time instead of an exponential one. Cliques of a pruned graph are cliques of
+// the full graph too, so everything streamed stays valid. Serialized process-wide (igraph is not
+// thread-safe); never aborts the process on an igraph error.
+CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
+                                       const CliqueVisitor& visit);
+
+}  // namespace mac_registration

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/correspondences.hpp"
+
+namespace mac_registration {
+
+struct SelectedClique {
+  std::vector<int> nodes;  // ascending correspondence indices
+  double weight = 0.0;     // sum of the graph's edge weights inside the clique
+};
+
+// Sum of the edge weights among `nodes` (ascending), the clique weight of the paper's Sec. 3.3.
+double cliqueWeight(const CompatibilityGraph& graph, const int* nodes, std::size_t size);
+
+// Node-guided clique selection (paper Sec. 3.3): each node keeps the heaviest clique that contains it
+// (strictly heavier replaces, so the first found wins ties). Cliques are offered one at a time as the search
+// streams them; only cliques some node still keeps are stored, so memory is bounded by N cliques.
+class NodeGuidedSelector {
+ public:
+  explicit NodeGuidedSelector(const CompatibilityGraph& graph);
+
+  void offer(const int* nodes, std::size_t size);
+
+  // The distinct kept cliques, ordered by the lowest node that keeps them.
+  std::vector<SelectedClique> selected() const;
+
+ private:
+  int store(const int* nodes, std::size_t size, double weight);
+  void release(int slot);
+
+  const CompatibilityGraph& graph_;
+  std::vector<int> slot_of_node_;  // -1 where a node is in no clique yet
+  std::vector<double> weight_of_node_;
+  std::vector<SelectedClique> slots_;
+  std::vector<int> slot_users_;
+  std::vector<int> free_slots_;
+};
+
+// Keeps the cliques whose every pair of correspondences is normal-consistent (paper Eq. 5):
+// |sin a_s - sin a_t| < threshold, a_s the angle between the two source normals, a_t between the target ones.
+std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
+                                                    const Correspondences& correspondences, double threshold);
+
+// The k heaviest cliques (all when k == 0), heaviest first; equal weights keep their order.
+std::vector<SelectedClique> heaviestCliques(std::vector<SelectedClique> cliques, std::size_t k);
+
+}  // namespace mac_registration

@@ -1,0 +1,63 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/parameters.hpp"
+
+namespace mac_registration {
+
+// An undirected weighted graph as sorted neighbour lists (CSR), each edge stored in both directions.
+// Node k is correspondence k. There is no N x N matrix: memory is O(N + edges).
+struct CompatibilityGraph {
+  int num_nodes = 0;
+  std::vector<std::int64_t> offsets;  // size num_nodes + 1
+  std::vector<int> neighbours;        // ascending within each node's range
+  std::vector<float> weights;         // aligned with neighbours
+
+  std::size_t numEdges() const { return neighbours.size() / 2; }
+  int degree(int node) const { return static_cast<int>(offsets[node + 1] - offsets[node]); }
+  // Weight of edge (a, b), 0 when there is none. O(log degree).
+  float weight(int a, int b) const;
+};
+
+// Builds a graph from upper-triangle edge lists: rows[i] holds (j, w) with j > i, ascending in j.
+struct UpperEdge {
+  int to;
+  float weight;
+};
+CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vector<UpperEdge>>& rows);
+
+// Outcome of building the first-order graph, with what the bounds did.
+struct FirstOrderGraph {
+  CompatibilityGraph graph;
+  // Nodes of the graph are correspondences; when the edge bound forced a reduction, the graph holds only
+  // the kept ones (others are isolated) and reduced_to says how many were kept.
+  bool reduced = false;
+  std::size_t reduced_to = 0;
+};
+
+// First-order compatibility graph (FOG, paper Eq. 1-2): an edge where the score is >= t_cmp, weighted by
+// the score. Both scores are monotone in d, so each pair is tested against a precomputed bound on d^2.
+FirstOrderGraph buildFirstOrderGraph(const Correspondences& correspondences, const GraphParams& params,
+                                     int num_threads);
+
+// Second-order weights (paper Eq. 4): w_ij = S_ij * sum_k S_ik S_jk over common neighbours k, on the
+// sparse lists. Edges in no triangle get weight 0 and are removed.
+CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads);
+
+// Multiply-adds buildSecondOrderGraph would spend on this graph.
+double secondOrderWork(const CompatibilityGraph& graph);
+
+// The graph with only the nodes where keep[node] is true; node ids are unchanged, dropped nodes isolated.
+CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep);
+
+// The `count` nodes of highest `score` (ties to the lower index) as a keep mask.
+std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t count);
+
+// Sum of incident edge weights per node.
+std::vector<double> nodeStrength(const CompatibilityGraph& graph);
+
+}  // namespace mac_registration

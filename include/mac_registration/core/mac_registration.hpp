@@ -1,0 +1,16 @@
+#pragma once
+
+#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/registration_result.hpp"
+
+namespace mac_registration {
+
+// Runs MAC on putative correspondences: compatibility graph (first or second order), bounded maximal
+// clique search streamed into node-guided selection, one SVD hypothesis per selected clique, evaluation on
+// all correspondences, refinement. Never throws for bad input or parameters and never prints: every
+// outcome is in the result (success, status, message, warnings, counters, time per stage). The same input
+// and parameters give the same result whatever num_threads is.
+RegistrationResult registerCorrespondences(const Correspondences& correspondences, const MacParams& params);
+
+}  // namespace mac_registration

@@ -1,0 +1,110 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace mac_registration {
+
+// How the compatibility of two correspondences is scored from their rigidity residual
+// d = | |s_i - s_j| - |t_i - t_j| |.
+enum class CompatibilityScore {
+  kGaussian,   // S = exp(-d^2 / (2 sigma^2)), the paper's Eq. 2 (sigma = d_cmp)
+  kQuadratic,  // S = 1 - d^2 / tau^2, what the MAC authors use for KITTI and learned matchers
+};
+
+// Stage 1-2: compatibility graph.
+struct GraphParams {
+  CompatibilityScore score = CompatibilityScore::kGaussian;
+  // d_cmp [m], > 0. The paper uses 10 x cloud resolution; correspondence-only callers give it in metres.
+  // 0.05 suits 3DMatch-like indoor FPFH matches (sparse graph, full recall on the shipped real set).
+  double gaussian_sigma = 0.05;
+  // tau_g [m], > 0, for the quadratic score.
+  double quadratic_threshold = 0.1;
+  // t_cmp, in (0, 1): an edge exists where S >= t_cmp. Higher = sparser graph. Paper default 0.99.
+  double t_cmp = 0.99;
+  // Second-order graph (SOG, paper Eq. 4) instead of the first-order one. The paper's default.
+  bool second_order = true;
+  // Memory bound: most first-order edges kept [count], >= 1000. A denser graph is rebuilt on the
+  // correspondences with the highest estimated degree (the result records it).
+  std::size_t max_edges = 4000000;
+  // Time bound of the second-order weights [multiply-adds], >= 1e5. A graph whose SOG would cost more is
+  // reduced to its highest-degree nodes first (the result records it).
+  double max_second_order_work = 3e8;
+};
+
+// Stage 3: maximal clique search.
+struct CliqueSearchParams {
+  // Smallest clique reported [nodes], >= 3 (three points fix a rigid transform). 4 suits outdoor lidar.
+  int min_clique_size = 3;
+  // Largest clique reported [nodes], 0 = no cap, else >= min_clique_size.
+  int max_clique_size = 0;
+  // Most cliques one search may stream [count], >= 1. On clean, high-inlier data the number of maximal
+  // cliques explodes; when the bound is hit the graph is pruned to its strongest nodes and searched again.
+  std::size_t max_cliques = 200000;
+  // Wall-clock budget for all searches together [s], > 0.
+  double time_limit = 2.0;
+  // How often a bounded search may prune and retry, in [0, 10].
+  int max_pruning_rounds = 3;
+  // Fraction of the nodes kept at each pruning round, in (0, 1).
+  double pruning_keep_fraction = 0.5;
+};
+
+// Stage 4: node-guided clique selection.
+struct SelectionParams {
+  // Normal-consistency filter (paper Sec. 3.3); needs normals in the correspondences.
+  bool normal_consistency = false;
+  // t_alpha, in (0, 1]: pairs must satisfy |sin a_s - sin a_t| < t_alpha.
+  double normal_consistency_threshold = 0.1;
+  // Keep the K heaviest selected cliques [count], 0 = all.
+  std::size_t top_k = 0;
+};
+
+// Stage 5: hypotheses.
+enum class HypothesisWeighting {
+  kEqual,        // instance-equal SVD, the paper's default
+  kEigenvector,  // weights = principal eigenvector of the SOG weight matrix (paper's weighted SVD)
+};
+
+struct HypothesisParams {
+  HypothesisWeighting weighting = HypothesisWeighting::kEqual;
+};
+
+// Stage 6: evaluation.
+enum class ScoreMetric {
+  kMAE,          // sum over inliers of (tau - r) / tau, the paper's default
+  kMSE,          // sum over inliers of (tau - r)^2 / tau^2
+  kInlierCount,  // number of inliers
+};
+
+struct EvaluationParams {
+  ScoreMetric metric = ScoreMetric::kMAE;
+  // tau [m], > 0: a correspondence is an inlier when |R s + t - t_target| < tau. 0.1 indoors, 0.6 KITTI.
+  double inlier_threshold = 0.1;
+  // Fewest inliers for the result to count as a success [count], >= 3.
+  std::size_t min_inliers = 3;
+};
+
+// Stage 7: refinement.
+struct RefinementParams {
+  bool enabled = true;
+  // Most reweighted-SVD rounds [count], in [1, 100].
+  int max_iterations = 20;
+};
+
+struct MacParams {
+  GraphParams graph;
+  CliqueSearchParams cliques;
+  SelectionParams selection;
+  HypothesisParams hypotheses;
+  EvaluationParams evaluation;
+  RefinementParams refinement;
+  // Worker threads for the parallel stages, 0 = OpenMP's default. Results do not depend on it.
+  int num_threads = 0;
+};
+
+// Every problem with the parameters, each as a sentence naming the parameter, its value and the allowed
+// range. Empty when the parameters are usable. The one place parameters are checked.
+std::vector<std::string> validateParams(const MacParams& params);
+
+}  // namespace mac_registration

@@ -1,0 +1,26 @@
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/evaluation.hpp"
+#include "mac_registration/core/parameters.hpp"
+
+namespace mac_registration {
+
+struct RefinementOutcome {
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+  HypothesisScore score;
+  int iterations = 0;    // rounds run
+  int improvements = 0;  // rounds that raised the score
+};
+
+// Iteratively reweighted SVD on the inliers of the current transform, weights 1 / (1 + (r / tau)^2).
+// Stops when a round does not raise the score and returns the best transform seen, never a worse one than
+// `initial`.
+RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const HypothesisScore& initial_score,
+                                  const Correspondences& correspondences,
+                                  const HypothesisEvaluator& evaluator, const EvaluationParams& evaluation,
+                                  const RefinementParams& params);
+
+}  // namespace mac_registration

@@ -1,0 +1,149 @@
+#include "mac_registration/core/clique_search.hpp"
+
+#include <igraph.h>
+
+#include <algorithm>
+#include <chrono>
+#include <exception>
+#include <vector>
+
+#include "igraph_session.hpp"
+
+namespace mac_registration {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct SearchState {
+  const CliqueVisitor* visit = nullptr;
+  std::size_t limit = 0;
+  Clock::time_point deadline;
+  std::size_t count = 0;
+  bool hit_count = false;
+  bool hit_time = false;
+  std::exception_ptr visitor_error;
+  std::vector<int> nodes;
+};
+
+// Called by igraph for each maximal clique. Exceptions must not unwind through igraph's C frames, so a
+// throwing visitor stops the search and its exception is rethrown afterwards.
+igraph_error_t onClique(const igraph_vector_int_t* clique, void* arg) {
+  auto& state = *static_cast<SearchState*>(arg);
+  const auto size = static_cast<std::size_t>(igraph_vector_int_size(clique));
+  state.nodes.resize(size);
+  for (std::size_t k = 0; k < size; ++k) state.nodes[k] = static_cast<int>(VECTOR(*clique)[k]);
+  std::sort(state.nodes.begin(), state.nodes.end());
+  try {
+    (*state.visit)(state.nodes.data(), size);
+  } catch (...) {
+    state.visitor_error = std::current_exception();
+    return IGRAPH_STOP;
+  }
+  ++state.count;
+  if (state.count >= state.limit) {
+    state.hit_count = true;
+    return IGRAPH_STOP;
+  }
+  // A clock read costs tens of nanoseconds; every 64th clique keeps the overshoot small and the cost nil.
+  if ((state.count & 63u) == 0 && Clock::now() > state.deadline) {
+    state.hit_time = true;
+    return IGRAPH_STOP;
+  }
+  return IGRAPH_SUCCESS;
+}
+
+struct SearchOutcome {
+  std::size_t cliques = 0;
+  bool hit_count = false;
+  bool hit_time = false;
+  std::string error;
+};
+
+SearchOutcome searchOnce(const CompatibilityGraph& graph, const CliqueSearchParams& params,
+                         Clock::time_point deadline, const CliqueVisitor& visit) {
+  SearchOutcome outcome;
+  IgraphSession session(deadline);
+  igraph_vector_int_t edges;
+  if (igraph_vector_int_init(&edges, static_cast<igraph_integer_t>(2 * graph.numEdges())) != IGRAPH_SUCCESS) {
+    outcome.error = session.lastError();
+    return outcome;
+  }
+  igraph_integer_t e = 0;
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+      if (graph.neighbours[p] <= i) continue;
+      VECTOR(edges)[e++] = i;
+      VECTOR(edges)[e++] = graph.neighbours[p];
+    }
+  }
+  igraph_t ig;
+  if (igraph_create(&ig, &edges, graph.num_nodes, IGRAPH_UNDIRECTED) != IGRAPH_SUCCESS) {
+    outcome.error = session.lastError();
+    igraph_vector_int_destroy(&edges);
+    return outcome;
+  }
+  igraph_vector_int_destroy(&edges);
+
+  SearchState state;
+  state.visit = &visit;
+  state.limit = params.max_cliques;
+  state.deadline = deadline;
+  const igraph_error_t code =
+      igraph_maximal_cliques_callback(&ig, onClique, &state, params.min_clique_size, params.max_clique_size);
+  igraph_destroy(&ig);
+  if (state.visitor_error) std::rethrow_exception(state.visitor_error);
+
+  outcome.cliques = state.count;
+  outcome.hit_count = state.hit_count;
+  outcome.hit_time = state.hit_time || code == IGRAPH_INTERRUPTED;
+  if (code != IGRAPH_SUCCESS && code != IGRAPH_STOP && code != IGRAPH_INTERRUPTED)
+    outcome.error = session.lastError();
+  return outcome;
+}
+
+std::size_t nonIsolatedNodes(const CompatibilityGraph& graph) {
+  std::size_t count = 0;
+  for (int i = 0; i < graph.num_nodes; ++i) count += graph.degree(i) > 0;
+  return count;
+}
+
+}  // namespace
+
+CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
+                                       const CliqueVisitor& visit) {
+  CliqueSearchStats stats;
+  const auto start = Clock::now();
+  const auto budget =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params.time_limit));
+  const auto final_deadline = start + budget;
+
+  CompatibilityGraph pruned;
+  const CompatibilityGraph* current = &graph;
+  for (int round = 0;; ++round) {
+    stats.nodes_searched = nonIsolatedNodes(*current);
+    // Keep half of what is left for the retries, so that a search stopped by time still leaves room to
+    // search a pruned graph.
+    const bool retries_left = round < params.max_pruning_rounds;
+    const auto now = Clock::now();
+    const auto deadline = retries_left ? now + (final_deadline - now) / 2 : final_deadline;
+    const SearchOutcome outcome = searchOnce(*current, params, deadline, visit);
+    stats.cliques += outcome.cliques;
+    stats.hit_count_limit |= outcome.hit_count;
+    stats.hit_time_limit |= outcome.hit_time;
+    if (!outcome.error.empty()) {
+      stats.error = outcome.error;
+      stats.complete = false;
+      break;
+    }
+    stats.complete = !outcome.hit_count && !outcome.hit_time;
+    if (stats.complete || !retries_left || Clock::now() >= final_deadline) break;
+
+    const auto keep_count = static_cast<std::size_t>(params.pruning_keep_fraction * stats.nodes_searched);
+    pruned = keepNodes(*current, strongestNodes(nodeStrength(*current), keep_count));
+    current = &pruned;
+    ++stats.pruning_rounds;
+  }
+  return stats;
+}
+
+}  // namespace mac_registration

@@ -1,0 +1,102 @@
+#include "mac_registration/core/clique_selection.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+
+namespace mac_registration {
+
+double cliqueWeight(const CompatibilityGraph& graph, const int* nodes, std::size_t size) {
+  double weight = 0.0;
+  for (std::size_t a = 0; a + 1 < size; ++a) {
+    // Both lists are ascending, so each lookup starts where the previous one ended.
+    auto it = graph.neighbours.begin() + graph.offsets[nodes[a]];
+    const auto last = graph.neighbours.begin() + graph.offsets[nodes[a] + 1];
+    for (std::size_t b = a + 1; b < size; ++b) {
+      it = std::lower_bound(it, last, nodes[b]);
+      if (it == last) break;
+      if (*it == nodes[b]) weight += graph.weights[it - graph.neighbours.begin()];
+    }
+  }
+  return weight;
+}
+
+NodeGuidedSelector::NodeGuidedSelector(const CompatibilityGraph& graph)
+    : graph_(graph), slot_of_node_(graph.num_nodes, -1), weight_of_node_(graph.num_nodes, 0.0) {}
+
+void NodeGuidedSelector::offer(const int* nodes, std::size_t size) {
+  const double weight = cliqueWeight(graph_, nodes, size);
+  int slot = -1;
+  for (std::size_t k = 0; k < size; ++k) {
+    const int node = nodes[k];
+    if (slot_of_node_[node] != -1 && weight <= weight_of_node_[node]) continue;
+    if (slot == -1) slot = store(nodes, size, weight);
+    if (slot_of_node_[node] != -1) release(slot_of_node_[node]);
+    slot_of_node_[node] = slot;
+    weight_of_node_[node] = weight;
+    ++slot_users_[slot];
+  }
+}
+
+int NodeGuidedSelector::store(const int* nodes, std::size_t size, double weight) {
+  int slot;
+  if (!free_slots_.empty()) {
+    slot = free_slots_.back();
+    free_slots_.pop_back();
+  } else {
+    slot = static_cast<int>(slots_.size());
+    slots_.emplace_back();
+    slot_users_.push_back(0);
+  }
+  slots_[slot].nodes.assign(nodes, nodes + size);
+  slots_[slot].weight = weight;
+  slot_users_[slot] = 0;
+  return slot;
+}
+
+void NodeGuidedSelector::release(int slot) {
+  if (--slot_users_[slot] > 0) return;
+  slots_[slot].nodes = {};
+  free_slots_.push_back(slot);
+}
+
+std::vector<SelectedClique> NodeGuidedSelector::selected() const {
+  std::vector<SelectedClique> result;
+  std::vector<char> emitted(slots_.size(), 0);
+  for (int slot : slot_of_node_) {
+    if (slot == -1 || emitted[slot]) continue;
+    emitted[slot] = 1;
+    result.push_back(slots_[slot]);
+  }
+  return result;
+}
+
+std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
+                                                    const Correspondences& c, double threshold) {
+  const auto sine = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return a.cross(b).norm() / std::max(a.norm() * b.norm(), 1e-12);
+  };
+  const auto consistent = [&](int i, int j) {
+    const double sin_s = sine(c.source_normals.col(i), c.source_normals.col(j));
+    const double sin_t = sine(c.target_normals.col(i), c.target_normals.col(j));
+    return std::abs(sin_s - sin_t) < threshold;
+  };
+  std::vector<SelectedClique> kept;
+  for (const auto& clique : cliques) {
+    bool ok = true;
+    for (std::size_t a = 0; ok && a < clique.nodes.size(); ++a) {
+      for (std::size_t b = a + 1; ok && b < clique.nodes.size(); ++b)
+        ok = consistent(clique.nodes[a], clique.nodes[b]);
+    }
+    if (ok) kept.push_back(clique);
+  }
+  return kept;
+}
+
+std::vector<SelectedClique> heaviestCliques(std::vector<SelectedClique> cliques, std::size_t k) {
+  std::stable_sort(cliques.begin(), cliques.end(),
+                   [](const SelectedClique& a, const SelectedClique& b) { return a.weight > b.weight; });
+  if (k > 0 && cliques.size() > k) cliques.resize(k);
+  return cliques;
+}
+
+}  // namespace mac_registration

@@ -1,0 +1,237 @@
+#include "mac_registration/core/compatibility_graph.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numeric>
+
+namespace mac_registration {
+namespace {
+
+// Largest d^2 whose score still reaches t_cmp; both scores fall monotonically with d.
+double maxResidualSquared(const GraphParams& params) {
+  if (params.score == CompatibilityScore::kGaussian) {
+    return -2.0 * params.gaussian_sigma * params.gaussian_sigma * std::log(params.t_cmp);
+  }
+  return (1.0 - params.t_cmp) * params.quadratic_threshold * params.quadratic_threshold;
+}
+
+float scoreFromResidualSquared(float d2, const GraphParams& params) {
+  if (params.score == CompatibilityScore::kGaussian) {
+    return std::exp(-d2 / static_cast<float>(2.0 * params.gaussian_sigma * params.gaussian_sigma));
+  }
+  return 1.0f - d2 / static_cast<float>(params.quadratic_threshold * params.quadratic_threshold);
+}
+
+// Structure-of-arrays float copy, centred on each cloud's centroid so that float keeps millimetres even
+// for map-sized coordinates; the loops over it vectorize.
+struct PointsSoA {
+  std::vector<float> sx, sy, sz, tx, ty, tz;
+
+  explicit PointsSoA(const Correspondences& c) {
+    const Eigen::Vector3d s0 = c.source_points.rowwise().mean();
+    const Eigen::Vector3d t0 = c.target_points.rowwise().mean();
+    const std::size_t n = c.size();
+    for (auto* v : {&sx, &sy, &sz, &tx, &ty, &tz}) v->resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d s = c.source_points.col(i) - s0;
+      const Eigen::Vector3d t = c.target_points.col(i) - t0;
+      sx[i] = float(s.x()), sy[i] = float(s.y()), sz[i] = float(s.z());
+      tx[i] = float(t.x()), ty[i] = float(t.y()), tz[i] = float(t.z());
+    }
+  }
+
+  float residualSquared(int i, int j) const {
+    const float ds = std::sqrt(sq(sx[i] - sx[j]) + sq(sy[i] - sy[j]) + sq(sz[i] - sz[j]));
+    const float dt = std::sqrt(sq(tx[i] - tx[j]) + sq(ty[i] - ty[j]) + sq(tz[i] - tz[j]));
+    return sq(ds - dt);
+  }
+
+  // d^2 of pair (i, j) for every j in [begin, end), written to out[j - begin]; branch-free to vectorize.
+  void residualsSquared(int i, int begin, int end, float* out) const {
+    const float six = sx[i], siy = sy[i], siz = sz[i], tix = tx[i], tiy = ty[i], tiz = tz[i];
+    for (int j = begin; j < end; ++j) {
+      const float ds = std::sqrt(sq(six - sx[j]) + sq(siy - sy[j]) + sq(siz - sz[j]));
+      const float dt = std::sqrt(sq(tix - tx[j]) + sq(tiy - ty[j]) + sq(tiz - tz[j]));
+      out[j - begin] = sq(ds - dt);
+    }
+  }
+
+  static float sq(float v) { return v * v; }
+};
+
+using UpperRows = std::vector<std::vector<UpperEdge>>;
+
+// Fills rows with every compatible pair (i, j > i) among nodes with keep[i] (all when keep is empty).
+// Returns false, leaving rows incomplete, as soon as more than max_edges edges are found; the total is
+// the same whatever the thread count, so the outcome is too.
+bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, const std::vector<char>& keep,
+                            std::size_t max_edges, int num_threads, UpperRows& rows) {
+  const int n = static_cast<int>(points.sx.size());
+  const float max_d2 = static_cast<float>(maxResidualSquared(params));
+  rows.assign(n, {});
+  std::atomic<std::size_t> total{0};
+  std::atomic<bool> overflow{false};
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<float> d2(n);
+#pragma omp for schedule(dynamic, 16)
+    for (int i = 0; i < n; ++i) {
+      if (overflow.load(std::memory_order_relaxed) || (!keep.empty() && !keep[i])) continue;
+      points.residualsSquared(i, i + 1, n, d2.data());
+      auto& row = rows[i];
+      for (int j = i + 1; j < n; ++j) {
+        const float r2 = d2[j - i - 1];
+        if (r2 <= max_d2 && (keep.empty() || keep[j]))
+          row.push_back({j, scoreFromResidualSquared(r2, params)});
+      }
+      if (total.fetch_add(row.size()) + row.size() > max_edges) overflow = true;
+    }
+  }
+  return !overflow;
+}
+
+// Degree of each node estimated against an evenly spaced sample of the others: a cheap look at a graph
+// too dense to build.
+std::vector<double> estimatedDegrees(const PointsSoA& points, const GraphParams& params, int num_threads) {
+  const int n = static_cast<int>(points.sx.size());
+  const int samples = std::min(n, 1024);
+  const float max_d2 = static_cast<float>(maxResidualSquared(params));
+  std::vector<double> degree(n, 0.0);
+#pragma omp parallel for schedule(static) num_threads(num_threads)
+  for (int i = 0; i < n; ++i) {
+    int count = 0;
+    for (int s = 0; s < samples; ++s) {
+      const int j = static_cast<int>((static_cast<long long>(s) * n) / samples);
+      if (j != i && points.residualSquared(i, j) <= max_d2) ++count;
+    }
+    degree[i] = count;
+  }
+  return degree;
+}
+
+}  // namespace
+
+float CompatibilityGraph::weight(int a, int b) const {
+  const auto first = neighbours.begin() + offsets[a];
+  const auto last = neighbours.begin() + offsets[a + 1];
+  const auto it = std::lower_bound(first, last, b);
+  return (it != last && *it == b) ? weights[it - neighbours.begin()] : 0.0f;
+}
+
+CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vector<UpperEdge>>& rows) {
+  CompatibilityGraph graph;
+  graph.num_nodes = num_nodes;
+  std::vector<std::int64_t> degree(num_nodes, 0);
+  for (int i = 0; i < num_nodes; ++i) {
+    degree[i] += static_cast<std::int64_t>(rows[i].size());
+    for (const auto& e : rows[i]) ++degree[e.to];
+  }
+  graph.offsets.assign(num_nodes + 1, 0);
+  std::partial_sum(degree.begin(), degree.end(), graph.offsets.begin() + 1);
+  graph.neighbours.resize(graph.offsets.back());
+  graph.weights.resize(graph.offsets.back());
+  // Rows in ascending order put the lower neighbours of a node (from earlier rows) before its own upper
+  // row, so every list comes out sorted without a sort.
+  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
+  for (int i = 0; i < num_nodes; ++i) {
+    for (const auto& e : rows[i]) {
+      graph.neighbours[cursor[i]] = e.to;
+      graph.weights[cursor[i]++] = e.weight;
+      graph.neighbours[cursor[e.to]] = i;
+      graph.weights[cursor[e.to]++] = e.weight;
+    }
+  }
+  return graph;
+}
+
+FirstOrderGraph buildFirstOrderGraph(const Correspondences& correspondences, const GraphParams& params,
+                                     int num_threads) {
+  const int n = static_cast<int>(correspondences.size());
+  FirstOrderGraph result;
+  if (n == 0) {
+    result.graph = graphFromUpperRows(0, {});
+    return result;
+  }
+  const PointsSoA points(correspondences);
+  UpperRows rows;
+  if (!collectCompatiblePairs(points, params, {}, params.max_edges, num_threads, rows)) {
+    // Too dense to hold: keep the nodes of highest estimated degree, few enough that even a complete
+    // graph on them fits the bound.
+    const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
+    const auto keep = strongestNodes(estimatedDegrees(points, params, num_threads), keep_count);
+    collectCompatiblePairs(points, params, keep, params.max_edges, num_threads, rows);
+    result.reduced = true;
+    result.reduced_to = std::min<std::size_t>(keep_count, n);
+  }
+  result.graph = graphFromUpperRows(n, rows);
+  return result;
+}
+
+double secondOrderWork(const CompatibilityGraph& graph) {
+  double work = 0.0;
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+      const int j = graph.neighbours[p];
+      if (j > i) work += graph.degree(j);
+    }
+  }
+  return work;
+}
+
+CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads) {
+  const int n = fog.num_nodes;
+  UpperRows rows(n);
+#pragma omp parallel num_threads(num_threads)
+  {
+    // Row i's weights scattered densely, so that a common neighbour k of (i, j) is found by one load while
+    // walking j's list: O(sum over edges of degree) with no N x N matrix.
+    std::vector<float> row_i(n, 0.0f);
+#pragma omp for schedule(dynamic, 8)
+    for (int i = 0; i < n; ++i) {
+      const auto begin = fog.offsets[i], end = fog.offsets[i + 1];
+      for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = fog.weights[p];
+      for (auto p = begin; p < end; ++p) {
+        const int j = fog.neighbours[p];
+        if (j < i) continue;
+        float common = 0.0f;
+        for (auto q = fog.offsets[j]; q < fog.offsets[j + 1]; ++q)
+          common += row_i[fog.neighbours[q]] * fog.weights[q];
+        if (common > 0.0f) rows[i].push_back({j, fog.weights[p] * common});
+      }
+      for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
+    }
+  }
+  return graphFromUpperRows(n, rows);
+}
+
+CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
+  UpperRows rows(graph.num_nodes);
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    if (!keep[i]) continue;
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+      const int j = graph.neighbours[p];
+      if (j > i && keep[j]) rows[i].push_back({j, graph.weights[p]});
+    }
+  }
+  return graphFromUpperRows(graph.num_nodes, rows);
+}
+
+std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t count) {
+  std::vector<int> order(score.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return score[a] > score[b]; });
+  std::vector<char> keep(score.size(), 0);
+  for (std::size_t r = 0; r < std::min(count, order.size()); ++r) keep[order[r]] = 1;
+  return keep;
+}
+
+std::vector<double> nodeStrength(const CompatibilityGraph& graph) {
+  std::vector<double> strength(graph.num_nodes, 0.0);
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) strength[i] += graph.weights[p];
+  }
+  return strength;
+}
+
+}  // namespace mac_registration
