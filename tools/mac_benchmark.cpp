@@ -1,0 +1,303 @@
+// mac_benchmark: measures the MAC core (time per stage, peak memory, counters, accuracy).
+//   mac_benchmark synthetic [--sizes 250,500,...] [--ratios 0.02,0.05,...] [--noise M] [--repeats R]
+//                           [--mesh PLY] [--csv FILE] [--config FILE] [--set KEY=VALUE]...
+//   mac_benchmark correspondences FILE GT_FILE [--repeats R] [--csv FILE] [--config FILE] [--set
+//   KEY=VALUE]... mac_benchmark compare ESTIMATE_FILE GT_FILE
+// Each case runs in a child process so that its peak resident memory is its own.
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli_config.hpp"
+#include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/text_io.hpp"
+#include "synthetic.hpp"
+
+namespace mac_registration {
+namespace {
+
+struct Options {
+  std::vector<int> sizes{250, 500, 1000, 2500, 5000, 10000};
+  std::vector<double> ratios{0.02, 0.05, 0.10, 0.50};
+  double noise = 0.005;
+  int repeats = 5;
+  std::string mesh = "test/data/teaser_bun_zipper_res3.ply";
+  std::string csv;
+  MacParams params;
+  std::vector<std::string> positional;
+};
+
+// What one case measured: medians over the repeats, accuracy of each repeat.
+struct CaseResult {
+  double graph = 0, second_order = 0, cliques = 0, selection = 0, hypotheses = 0, evaluation = 0,
+         refinement = 0, total = 0;
+  double peak_mb = 0;
+  double clique_count = 0, selected = 0, inliers = 0, edges = 0;
+  double max_re = 0, max_te = 0;
+  int successes = 0, incomplete = 0, repeats = 0;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+template <typename Run>
+CaseResult measure(int repeats, Run run_once) {
+  std::vector<std::vector<double>> stage(12);
+  CaseResult r;
+  r.repeats = repeats;
+  for (int k = 0; k < repeats; ++k) {
+    Eigen::Isometry3d truth;
+    const RegistrationResult result = run_once(k, truth);
+    const StageTimes& t = result.times;
+    const double values[] = {t.graph_ms,
+                             t.second_order_ms,
+                             t.clique_search_ms,
+                             t.selection_ms,
+                             t.hypotheses_ms,
+                             t.evaluation_ms,
+                             t.refinement_ms,
+                             t.total_ms,
+                             double(result.counters.cliques),
+                             double(result.counters.selected_cliques),
+                             double(result.counters.inliers),
+                             double(result.counters.graph_edges)};
+    for (int s = 0; s < 12; ++s) stage[s].push_back(values[s]);
+    r.successes += result.success;
+    r.incomplete += !result.clique_search_complete;
+    if (result.success) {
+      r.max_re = std::max(r.max_re, rotationErrorDeg(result.T_target_source, truth));
+      r.max_te = std::max(r.max_te, translationError(result.T_target_source, truth));
+    }
+  }
+  double* fields[] = {&r.graph,        &r.second_order, &r.cliques,    &r.selection,
+                      &r.hypotheses,   &r.evaluation,   &r.refinement, &r.total,
+                      &r.clique_count, &r.selected,     &r.inliers,    &r.edges};
+  for (int s = 0; s < 12; ++s) *fields[s] = median(stage[s]);
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  r.peak_mb = usage.ru_maxrss / 1024.0;
+  return r;
+}
+
+// Runs `work` in a child so that the peak memory it reports is the case's alone (libgomp's thread pool
+// does not survive fork, so the parent itself never registers anything).
+template <typename Work>
+CaseResult inChild(Work work) {
+  int fds[2];
+  if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    CaseResult r = work();
+    const ssize_t written = write(fds[1], &r, sizeof r);
+    _exit(written == sizeof r ? 0 : 1);
+  }
+  close(fds[1]);
+  CaseResult r;
+  const ssize_t got = read(fds[0], &r, sizeof r);
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (got != sizeof r || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw std::runtime_error("benchmark case crashed");
+  return r;
+}
+
+const char* kHeader =
+    "case,n,inlier_ratio,noise_m,graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,"
+    "evaluation_ms,"
+    "refinement_ms,total_ms,peak_mb,graph_edges,cliques,selected_cliques,inliers,successes,repeats,"
+    "incomplete_searches,max_re_deg,max_te_m";
+
+void printRow(std::ostream& out, const std::string& name, int n, double ratio, double noise,
+              const CaseResult& r) {
+  out << std::fixed << std::setprecision(2) << std::setw(14) << name << std::setw(7) << n << std::setw(6)
+      << ratio * 100 << "%" << std::setw(8) << r.graph << std::setw(8) << r.second_order << std::setw(9)
+      << r.cliques << std::setw(8) << r.selection << std::setw(7) << r.hypotheses << std::setw(8)
+      << r.evaluation << std::setw(7) << r.refinement << std::setw(9) << r.total << std::setw(8)
+      << std::setprecision(1) << r.peak_mb << std::setw(10) << std::setprecision(0) << r.clique_count
+      << std::setw(7) << r.inliers << std::setw(5) << r.successes << "/" << r.repeats << std::setw(8)
+      << std::setprecision(2) << r.max_re << std::setw(8) << std::setprecision(3) << r.max_te << "\n";
+  (void)noise;
+}
+
+void printTableHeader(std::ostream& out) {
+  out << std::setw(14) << "case" << std::setw(7) << "N" << std::setw(7) << "inl" << std::setw(8) << "graph"
+      << std::setw(8) << "SOG" << std::setw(9) << "cliques" << std::setw(8) << "select" << std::setw(7)
+      << "hyp" << std::setw(8) << "eval" << std::setw(7) << "refine" << std::setw(9) << "total"
+      << std::setw(8) << "peakMB" << std::setw(10) << "#cliques" << std::setw(7) << "#inl" << std::setw(7)
+      << "ok" << std::setw(8) << "maxRE" << std::setw(8) << "maxTE"
+      << "\n"
+      << std::setw(14) << "" << std::setw(7) << "" << std::setw(7) << ""
+      << "  (median ms per stage)" << std::setw(52) << "(median)" << std::setw(24) << "[deg]" << std::setw(8)
+      << "[m]"
+      << "\n";
+}
+
+void writeCsvRow(std::ostream& csv, const std::string& name, int n, double ratio, double noise,
+                 const CaseResult& r) {
+  csv << name << "," << n << "," << ratio << "," << noise << "," << r.graph << "," << r.second_order << ","
+      << r.cliques << "," << r.selection << "," << r.hypotheses << "," << r.evaluation << "," << r.refinement
+      << "," << r.total << "," << r.peak_mb << "," << r.edges << "," << r.clique_count << "," << r.selected
+      << "," << r.inliers << "," << r.successes << "," << r.repeats << "," << r.incomplete << "," << r.max_re
+      << "," << r.max_te << "\n";
+}
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, ',');) parts.push_back(part);
+  return parts;
+}
+
+Options parseOptions(int argc, char** argv) {
+  Options o;
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(arg + " needs a value");
+      return argv[++i];
+    };
+    if (arg == "--sizes") {
+      o.sizes.clear();
+      for (const auto& s : split(value())) o.sizes.push_back(std::stoi(s));
+    } else if (arg == "--ratios") {
+      o.ratios.clear();
+      for (const auto& s : split(value())) o.ratios.push_back(std::stod(s));
+    } else if (arg == "--noise")
+      o.noise = std::stod(value());
+    else if (arg == "--repeats")
+      o.repeats = std::max(1, std::stoi(value()));
+    else if (arg == "--mesh")
+      o.mesh = value();
+    else if (arg == "--csv")
+      o.csv = value();
+    else if (arg == "--config")
+      loadParamsFile(o.params, value());
+    else if (arg == "--set") {
+      const std::string kv = value();
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) throw std::invalid_argument("--set expects KEY=VALUE");
+      setParam(o.params, kv.substr(0, eq), kv.substr(eq + 1));
+    } else if (!arg.empty() && arg[0] == '-')
+      throw std::invalid_argument("unknown option " + arg);
+    else
+      o.positional.push_back(arg);
+  }
+  return o;
+}
+
+// The synthetic scene: the bunny scaled to a 3 m object, 5 mm noise by default; graph and evaluation
+// thresholds follow the noise unless --config/--set gave others.
+int runSynthetic(Options o, bool params_given) {
+  const TriangleMesh mesh = readAsciiPlyMesh(o.mesh);
+  if (!params_given) {
+    o.params.graph.gaussian_sigma = 50.0 * o.noise;
+    o.params.evaluation.inlier_threshold = 10.0 * o.noise;
+  }
+  std::ofstream csv;
+  if (!o.csv.empty()) {
+    csv.open(o.csv);
+    csv << kHeader << "\n";
+  }
+  std::cout << "synthetic: bunny mesh scaled to 3 m, noise " << o.noise << " m, " << o.repeats
+            << " repeats per case (seeds 1..), gaussian_sigma " << o.params.graph.gaussian_sigma
+            << " m, t_cmp " << o.params.graph.t_cmp << ", tau " << o.params.evaluation.inlier_threshold
+            << " m\n";
+  printTableHeader(std::cout);
+  for (int n : o.sizes) {
+    for (double ratio : o.ratios) {
+      const CaseResult r = inChild([&] {
+        return measure(o.repeats, [&](int k, Eigen::Isometry3d& truth) {
+          SyntheticSpec spec;
+          spec.correspondences = n;
+          spec.inlier_ratio = ratio;
+          spec.noise_sigma = o.noise;
+          spec.object_size = 3.0;
+          spec.seed = static_cast<std::uint32_t>(k + 1);
+          const SyntheticProblem problem = makeSyntheticProblem(mesh, spec);
+          truth = problem.T_target_source;
+          return registerCorrespondences(problem.correspondences, o.params);
+        });
+      });
+      printRow(std::cout, "synthetic", n, ratio, o.noise, r);
+      if (csv.is_open()) writeCsvRow(csv, "synthetic", n, ratio, o.noise, r);
+    }
+  }
+  return 0;
+}
+
+int runCorrespondences(const Options& o) {
+  if (o.positional.size() != 2) throw std::invalid_argument("correspondences needs FILE GT_FILE");
+  const Correspondences c = readCorrespondencesFile(o.positional[0]);
+  const Eigen::Isometry3d gt = readTransformFile(o.positional[1]);
+  const CaseResult r = inChild([&] {
+    return measure(o.repeats, [&](int, Eigen::Isometry3d& truth) {
+      truth = gt;
+      return registerCorrespondences(c, o.params);
+    });
+  });
+  std::cout << "correspondences: " << o.positional[0] << " (" << c.size() << "), " << o.repeats
+            << " repeats\n";
+  printTableHeader(std::cout);
+  printRow(std::cout, "file", int(c.size()), 0.0, 0.0, r);
+  if (!o.csv.empty()) {
+    std::ofstream csv(o.csv);
+    csv << kHeader << "\n";
+    writeCsvRow(csv, o.positional[0], int(c.size()), 0.0, 0.0, r);
+  }
+  return r.successes == r.repeats ? 0 : 1;
+}
+
+int runCompare(const Options& o) {
+  if (o.positional.size() != 2) throw std::invalid_argument("compare needs ESTIMATE_FILE GT_FILE");
+  const Eigen::Isometry3d estimate = readTransformFile(o.positional[0]);
+  const Eigen::Isometry3d truth = readTransformFile(o.positional[1]);
+  const double re = rotationErrorDeg(estimate, truth), te = translationError(estimate, truth);
+  const bool ok = re <= 15.0 && te <= 0.30;
+  std::cout << std::fixed << std::setprecision(3) << "error against ground truth: rotation " << re
+            << " deg, translation " << te * 100.0 << " cm -> " << (ok ? "within" : "OUTSIDE")
+            << " the 3DMatch criterion (RE <= 15 deg, TE <= 30 cm)\n";
+  return ok ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace mac_registration
+
+int main(int argc, char** argv) {
+  using namespace mac_registration;
+  const std::string usage =
+      "usage: mac_benchmark synthetic|correspondences|compare ... (see the comment at the top of "
+      "tools/mac_benchmark.cpp or BENCHMARKS.md)\n";
+  if (argc < 2) {
+    std::cerr << usage;
+    return 2;
+  }
+  const std::string mode = argv[1];
+  try {
+    const Options options = parseOptions(argc, argv);
+    bool params_given = false;
+    for (int i = 2; i < argc; ++i)
+      params_given |= std::string(argv[i]) == "--config" || std::string(argv[i]) == "--set";
+    if (mode == "synthetic") return runSynthetic(options, params_given);
+    if (mode == "correspondences") return runCorrespondences(options);
+    if (mode == "compare") return runCompare(options);
+    std::cerr << "mac_benchmark: unknown mode '" << mode << "'\n" << usage;
+  } catch (const std::exception& e) {
+    std::cerr << "mac_benchmark: " << e.what() << "\n";
+  }
+  return 2;
+}

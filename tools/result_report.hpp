@@ -1,0 +1,12 @@
+#pragma once
+
+#include <ostream>
+
+#include "mac_registration/core/registration_result.hpp"
+
+namespace mac_registration {
+
+// A human-readable summary of a result: status, warnings, counters and time per stage.
+void printResultSummary(std::ostream& out, const RegistrationResult& result);
+
+}  // namespace mac_registration
