@@ -11,9 +11,9 @@ void printResultSummary(std::ostream& out, const RegistrationResult& r) {
   for (const auto& warning : r.warnings) out << "warning: " << warning << "\n";
   out << "counters: correspondences " << c.correspondences << ", dropped non-finite " << c.dropped_non_finite
       << ", graph nodes " << c.graph_nodes << ", first-order edges " << c.first_order_edges
-      << ", graph edges " << c.graph_edges << ", cliques " << c.cliques
-      << (r.clique_search_complete ? "" : " (search bounded)") << ", pruning rounds " << c.pruning_rounds
-      << ", selected cliques " << c.selected_cliques << ", hypotheses " << c.hypotheses
+      << ", graph edges " << c.graph_edges << " (" << c.pruned_weak_edges << " weak pruned), cliques "
+      << c.cliques << (r.clique_search_complete ? "" : " (search bounded)") << ", pruning rounds "
+      << c.pruning_rounds << ", selected cliques " << c.selected_cliques << ", hypotheses " << c.hypotheses
       << ", degenerate cliques " << c.degenerate_cliques << ", inliers " << c.inliers
       << ", refinement iterations " << c.refinement_iterations << "\n";
   out << std::fixed << std::setprecision(2) << "time [ms]: graph " << t.graph_ms << ", second order "

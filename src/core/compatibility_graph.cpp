@@ -23,6 +23,23 @@ float scoreFromResidualSquared(float d2, const GraphParams& params) {
   return 1.0f - d2 / static_cast<float>(params.quadratic_threshold * params.quadratic_threshold);
 }
 
+// The O(N^2) loop of the graph: branch-free so that it vectorizes, with an AVX2 clone picked at run time
+// where the CPU has it (the same IEEE operations, no FMA, so the same edges either way).
+__attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(const float* sx, const float* sy,
+                                                                            const float* sz, const float* tx,
+                                                                            const float* ty, const float* tz,
+                                                                            int i, int begin, int end,
+                                                                            float* out) {
+  const float six = sx[i], siy = sy[i], siz = sz[i], tix = tx[i], tiy = ty[i], tiz = tz[i];
+  for (int j = begin; j < end; ++j) {
+    const float ds = std::sqrt((six - sx[j]) * (six - sx[j]) + (siy - sy[j]) * (siy - sy[j]) +
+                               (siz - sz[j]) * (siz - sz[j]));
+    const float dt = std::sqrt((tix - tx[j]) * (tix - tx[j]) + (tiy - ty[j]) * (tiy - ty[j]) +
+                               (tiz - tz[j]) * (tiz - tz[j]));
+    out[j - begin] = (ds - dt) * (ds - dt);
+  }
+}
+
 // Structure-of-arrays float copy, centred on each cloud's centroid so that float keeps millimetres even
 // for map-sized coordinates; the loops over it vectorize.
 struct PointsSoA {
@@ -47,14 +64,10 @@ struct PointsSoA {
     return sq(ds - dt);
   }
 
-  // d^2 of pair (i, j) for every j in [begin, end), written to out[j - begin]; branch-free to vectorize.
+  // d^2 of pair (i, j) for every j in [begin, end), written to out[j - begin].
   void residualsSquared(int i, int begin, int end, float* out) const {
-    const float six = sx[i], siy = sy[i], siz = sz[i], tix = tx[i], tiy = ty[i], tiz = tz[i];
-    for (int j = begin; j < end; ++j) {
-      const float ds = std::sqrt(sq(six - sx[j]) + sq(siy - sy[j]) + sq(siz - sz[j]));
-      const float dt = std::sqrt(sq(tix - tx[j]) + sq(tiy - ty[j]) + sq(tiz - tz[j]));
-      out[j - begin] = sq(ds - dt);
-    }
+    pairResidualsSquared(sx.data(), sy.data(), sz.data(), tx.data(), ty.data(), tz.data(), i, begin, end,
+                         out);
   }
 
   static float sq(float v) { return v * v; }
@@ -75,15 +88,21 @@ bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, 
 #pragma omp parallel num_threads(num_threads)
   {
     std::vector<float> d2(n);
+    std::vector<int> candidates(n);
 #pragma omp for schedule(dynamic, 16)
     for (int i = 0; i < n; ++i) {
       if (overflow.load(std::memory_order_relaxed) || (!keep.empty() && !keep[i])) continue;
       points.residualsSquared(i, i + 1, n, d2.data());
-      auto& row = rows[i];
+      // Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
+      int found = 0;
       for (int j = i + 1; j < n; ++j) {
-        const float r2 = d2[j - i - 1];
-        if (r2 <= max_d2 && (keep.empty() || keep[j]))
-          row.push_back({j, scoreFromResidualSquared(r2, params)});
+        candidates[found] = j;
+        found += d2[j - i - 1] <= max_d2;
+      }
+      auto& row = rows[i];
+      for (int c = 0; c < found; ++c) {
+        const int j = candidates[c];
+        if (keep.empty() || keep[j]) row.push_back({j, scoreFromResidualSquared(d2[j - i - 1], params)});
       }
       if (total.fetch_add(row.size()) + row.size() > max_edges) overflow = true;
     }
@@ -224,6 +243,74 @@ std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t c
   std::vector<char> keep(score.size(), 0);
   for (std::size_t r = 0; r < std::min(count, order.size()); ++r) keep[order[r]] = 1;
   return keep;
+}
+
+float otsuEdgeThreshold(const CompatibilityGraph& graph) {
+  if (graph.weights.empty()) return 0.0f;
+  const auto [lightest, heaviest] = std::minmax_element(graph.weights.begin(), graph.weights.end());
+  const double low = *lightest, span = double(*heaviest) - low;
+  if (!(span > 0.0)) return *lightest;
+  constexpr int kBins = 256;
+  std::vector<double> count(kBins, 0.0);
+  for (float w : graph.weights) count[std::min(kBins - 1, int((w - low) / span * kBins))] += 1.0;
+  const double total = double(graph.weights.size());
+  double sum_all = 0.0;
+  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
+  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
+  int best_bin = 0;
+  for (int b = 0; b < kBins - 1; ++b) {
+    below += count[b];
+    sum_below += b * count[b];
+    const double above = total - below;
+    if (below == 0.0 || above == 0.0) continue;
+    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
+    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
+    if (between > best_variance) best_variance = between, best_bin = b;
+  }
+  return float(low + span * (best_bin + 1) / kBins);
+}
+
+CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold) {
+  UpperRows rows(graph.num_nodes);
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+      const int j = graph.neighbours[p];
+      if (j > i && graph.weights[p] >= threshold) rows[i].push_back({j, graph.weights[p]});
+    }
+  }
+  return graphFromUpperRows(graph.num_nodes, rows);
+}
+
+std::vector<int> coreNumbers(const CompatibilityGraph& graph) {
+  const int n = graph.num_nodes;
+  std::vector<int> degree(n), order(n), position(n);
+  int max_degree = 0;
+  for (int i = 0; i < n; ++i) max_degree = std::max(max_degree, degree[i] = graph.degree(i));
+  // Bucket sort by degree, then peel nodes in increasing degree, moving each neighbour one bucket down.
+  std::vector<int> bucket_start(max_degree + 2, 0);
+  for (int i = 0; i < n; ++i) ++bucket_start[degree[i] + 1];
+  std::partial_sum(bucket_start.begin(), bucket_start.end(), bucket_start.begin());
+  std::vector<int> next = bucket_start;
+  for (int i = 0; i < n; ++i) {
+    position[i] = next[degree[i]]++;
+    order[position[i]] = i;
+  }
+  for (int k = 0; k < n; ++k) {
+    const int v = order[k];
+    for (auto p = graph.offsets[v]; p < graph.offsets[v + 1]; ++p) {
+      const int u = graph.neighbours[p];
+      if (degree[u] <= degree[v]) continue;
+      // Swap u with the first node of its bucket, then shrink that bucket by one.
+      const int first = order[bucket_start[degree[u]]];
+      if (first != u) {
+        std::swap(order[position[u]], order[bucket_start[degree[u]]]);
+        std::swap(position[u], position[first]);
+      }
+      ++bucket_start[degree[u]];
+      --degree[u];
+    }
+  }
+  return degree;
 }
 
 std::vector<double> nodeStrength(const CompatibilityGraph& graph) {

@@ -69,6 +69,15 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
   const auto filter_start = Clock::now();
   result.counters.cliques = stats.cliques;
   result.counters.pruning_rounds = stats.pruning_rounds;
+  result.counters.degeneracy = stats.degeneracy;
+  result.counters.thinned_nodes = stats.thinned_nodes;
+  if (stats.thinned_nodes > 0) {
+    result.warnings.push_back(
+        "graph degeneracy " + std::to_string(stats.degeneracy) +
+        " exceeds cliques.max_degeneracy: " + std::to_string(stats.thinned_nodes) +
+        " correspondences of its densest cores were left out of the clique search (they are "
+        "still scored)");
+  }
   result.clique_search_complete = stats.complete;
   if (!stats.error.empty()) throw std::runtime_error("maximal clique search failed: " + stats.error);
   if (!stats.complete) {
@@ -179,6 +188,12 @@ void runPipeline(const Correspondences& input, const MacParams& params, Registra
   if (params.graph.second_order) {
     graph = buildSecondOrderGraph(
         boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, result), threads);
+  }
+  if (params.graph.dense_mean_degree > 0.0 && graph.num_nodes > 0 &&
+      2.0 * double(graph.numEdges()) / graph.num_nodes > params.graph.dense_mean_degree) {
+    const std::size_t before = graph.numEdges();
+    graph = withoutWeakEdges(graph, otsuEdgeThreshold(graph));
+    result.counters.pruned_weak_edges = before - graph.numEdges();
   }
   result.counters.graph_edges = graph.numEdges();
   result.times.second_order_ms = millisecondsSince(start);

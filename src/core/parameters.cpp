@@ -35,11 +35,15 @@ std::vector<std::string> validateParams(const MacParams& p) {
   check.require(p.graph.max_second_order_work >= 1e5, "graph.max_second_order_work",
                 p.graph.max_second_order_work, ">= 1e5");
 
+  check.require(p.graph.dense_mean_degree == 0.0 || p.graph.dense_mean_degree >= 1.0,
+                "graph.dense_mean_degree", p.graph.dense_mean_degree, "0 (never prune) or >= 1");
   check.require(p.cliques.min_clique_size >= 3, "cliques.min_clique_size", p.cliques.min_clique_size,
                 ">= 3 (three points are needed for a rigid transform)");
   check.require(p.cliques.max_clique_size == 0 || p.cliques.max_clique_size >= p.cliques.min_clique_size,
                 "cliques.max_clique_size", p.cliques.max_clique_size,
                 "0 (no cap) or >= cliques.min_clique_size");
+  check.require(p.cliques.max_degeneracy == 0 || p.cliques.max_degeneracy >= 2, "cliques.max_degeneracy",
+                p.cliques.max_degeneracy, "0 (no bound) or >= 2");
   check.require(p.cliques.max_cliques >= 1, "cliques.max_cliques", double(p.cliques.max_cliques), ">= 1");
   check.positive("cliques.time_limit [s]", p.cliques.time_limit);
   check.require(p.cliques.max_pruning_rounds >= 0 && p.cliques.max_pruning_rounds <= 10,

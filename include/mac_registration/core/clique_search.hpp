@@ -19,16 +19,19 @@ struct CliqueSearchStats {
   bool complete = true;            // the last search enumerated every maximal clique of its graph
   bool hit_count_limit = false;    // some search stopped at max_cliques
   bool hit_time_limit = false;     // the time budget ran out
+  int degeneracy = 0;              // of the graph given
+  std::size_t thinned_nodes = 0;   // left out of the search by the max_degeneracy bound
   std::size_t nodes_searched = 0;  // non-isolated nodes in the last search
   std::string error;               // igraph's message when a search failed (not a bound), else empty
 };
 
 // Maximal cliques of size >= min_clique_size through igraph's callback search (Eppstein's Bron-Kerbosch
-// variant). Bounded by count and time: when a bound stops a search, the graph is pruned to its strongest
-// nodes (highest sum of edge weights) and searched again, up to max_pruning_rounds times, so that a dense
-// clean graph costs a bounded time instead of an exponential one. Cliques of a pruned graph are cliques of
-// the full graph too, so everything streamed stays valid. Serialized process-wide (igraph is not
-// thread-safe); never aborts the process on an igraph error.
+// variant). A graph of higher degeneracy than max_degeneracy first has its dense cores thinned to their
+// strongest nodes (see CliqueSearchParams). Bounded by count and time: when a bound stops a search, the graph
+// is pruned to its strongest nodes (highest sum of edge weights) and searched again, up to max_pruning_rounds
+// times, so that a dense clean graph costs a bounded time instead of an exponential one. Cliques of a pruned
+// graph are cliques of the full graph too, so everything streamed stays valid. Serialized process-wide
+// (igraph is not thread-safe); never aborts the process on an igraph error.
 CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
                                        const CliqueVisitor& visit);
 

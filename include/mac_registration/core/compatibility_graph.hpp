@@ -57,6 +57,18 @@ CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<
 // The `count` nodes of highest `score` (ties to the lower index) as a keep mask.
 std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t count);
 
+// Otsu's threshold of the edge weights (256 bins between the lightest and the heaviest edge): the cut that
+// best separates them into two classes. On a dense second-order graph these are the edges among outliers
+// (few common neighbours) and the edges among inliers (many).
+float otsuEdgeThreshold(const CompatibilityGraph& graph);
+
+// The graph without its edges lighter than `threshold`.
+CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold);
+
+// Core number of each node (the largest k such that the node is in the k-core), Batagelj-Zaversnik, O(E).
+// The largest is the graph's degeneracy, which bounds clique sizes and the cost of the clique search.
+std::vector<int> coreNumbers(const CompatibilityGraph& graph);
+
 // Sum of incident edge weights per node.
 std::vector<double> nodeStrength(const CompatibilityGraph& graph);
 

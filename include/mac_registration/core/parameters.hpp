@@ -31,6 +31,12 @@ struct GraphParams {
   // Time bound of the second-order weights [multiply-adds], >= 1e5. A graph whose SOG would cost more is
   // reduced to its highest-degree nodes first (the result records it).
   double max_second_order_work = 3e8;
+  // Dense-graph pruning [mean degree], 0 = never, else >= 1: when the graph searched for cliques has a
+  // higher mean degree, its edges below Otsu's threshold of the edge weights are removed first. Dense
+  // graphs come from many outliers that are compatible by chance; their edges have few common neighbours
+  // and light second-order weights, while a consensus set's edges are heavy. (The MAC authors' code prunes
+  // dense graphs too, by clustering coefficient.)
+  double dense_mean_degree = 50.0;
 };
 
 // Stage 3: maximal clique search.
@@ -42,6 +48,12 @@ struct CliqueSearchParams {
   // Most cliques one search may stream [count], >= 1. On clean, high-inlier data the number of maximal
   // cliques explodes; when the bound is hit the graph is pruned to its strongest nodes and searched again.
   std::size_t max_cliques = 200000;
+  // Largest degeneracy searched [core number], 0 = no bound, else >= 2. A dense consensus set (many clean
+  // inliers) forms a near-clique of hundreds of nodes, where the enumeration spends seconds inside igraph
+  // without reporting a clique. Above the bound, the nodes of the dense cores are thinned to the
+  // max_degeneracy strongest before the search: any clique of them is an equally good hypothesis, and
+  // evaluation and refinement still use every correspondence.
+  int max_degeneracy = 64;
   // Wall-clock budget for all searches together [s], > 0.
   double time_limit = 2.0;
   // How often a bounded search may prune and retry, in [0, 10].

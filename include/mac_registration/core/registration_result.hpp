@@ -38,7 +38,10 @@ struct RegistrationCounters {
   std::size_t graph_nodes = 0;         // correspondences the graph was built on
   std::size_t first_order_edges = 0;
   std::size_t graph_edges = 0;         // edges searched for cliques (SOG when enabled)
+  std::size_t pruned_weak_edges = 0;   // removed by dense-graph pruning
   std::size_t cliques = 0;             // maximal cliques enumerated
+  int degeneracy = 0;                  // of the graph searched for cliques
+  std::size_t thinned_nodes = 0;       // left out of the clique search by cliques.max_degeneracy
   int pruning_rounds = 0;              // clique searches repeated on a pruned graph
   std::size_t selected_cliques = 0;    // after node-guided selection and filters
   std::size_t hypotheses = 0;          // non-degenerate transforms scored
