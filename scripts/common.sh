@@ -1,0 +1,52 @@
+# Shared by the set-up scripts: environment fixes for Debian 12's ROS 1, dependency install, build.
+# Sourced, not run.
+
+# A pyenv python first on PATH has no ROS modules (catkin_make fails with "No module named catkin_pkg").
+export PATH="/usr/bin:/bin:/usr/sbin:/sbin:${PATH:-}"
+export ROS_HOSTNAME=localhost
+export ROS_HOME="${ROS_HOME:-${HOME:-/tmp}/.ros}"
+PROJECT_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+WORKSPACE="${MAC_WORKSPACE:-$PROJECT_DIR/build/ws}"
+
+# Debian 12 packages the package builds, tests and runs with.
+DEBIAN_PACKAGES=(
+  build-essential cmake pkg-config catkin
+  libeigen3-dev libigraph-dev libglpk-dev libplfit-dev libgtest-dev libpcl-dev
+  ros-base-dev libnodelet-dev libpcl-ros-dev libpcl-conversions-dev libtf2-ros-dev libtf2-eigen-dev
+  libtf2-sensor-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
+  libdiagnostic-updater-dev librostest-dev python3-rostest python3-rosbag python3-roslaunch rosbash tf2-tools
+  python3-sensor-msgs python3-geometry-msgs python3-std-srvs libvisualization-msgs-dev
+)
+
+install_dependencies() {
+  local missing=()
+  for p in "${DEBIAN_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && { echo "== dependencies: all ${#DEBIAN_PACKAGES[@]} Debian packages present"; return; }
+  echo "== installing ${#missing[@]} Debian packages: ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  $sudo apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+# Builds the package (and its tests) in a catkin workspace that links to this checkout, Release.
+build_workspace() {
+  mkdir -p "$WORKSPACE/src"
+  ln -sfn "$PROJECT_DIR" "$WORKSPACE/src/mac_registration"
+  echo "== building in $WORKSPACE (Release)"
+  (cd "$WORKSPACE" && catkin_make -DCMAKE_BUILD_TYPE=Release -j"$(nproc)" >"$WORKSPACE/build.log" 2>&1) || {
+    tail -n 60 "$WORKSPACE/build.log"
+    echo "build failed; full log: $WORKSPACE/build.log"
+    return 1
+  }
+}
+
+source_workspace() {
+  # devel/setup.bash reads unset variables (ROS_DISTRO): it cannot run under set -u.
+  set +u
+  # shellcheck disable=SC1091
+  source "$WORKSPACE/devel/setup.bash"
+  set -u
+}

@@ -1,0 +1,148 @@
+// Bad input must end in an explicit failure (or an honest success), within bounded time and memory, and
+// never in a crash, a NaN pose or an uninitialized one.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/text_io.hpp"
+#include "test_support.hpp"
+
+namespace mac_registration {
+namespace {
+
+Correspondences randomRigidSet(int n, unsigned seed) {
+  return makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(n, 1.0, seed)).correspondences;
+}
+
+void expectFailure(const RegistrationResult& result, RegistrationStatus status) {
+  EXPECT_FALSE(result.success);
+  EXPECT_EQ(result.status, status) << "got " << toString(result.status) << ": " << result.message;
+  EXPECT_FALSE(result.message.empty());
+  EXPECT_TRUE(result.T_target_source.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(BadInput, FewerThanThreeCorrespondences) {
+  for (int n : {0, 1, 2}) {
+    Correspondences c;
+    c.source_points = Eigen::Matrix3Xd::Random(3, n);
+    c.target_points = c.source_points;
+    expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kTooFewCorrespondences);
+  }
+}
+
+TEST(BadInput, MismatchedSourceAndTargetCounts) {
+  Correspondences c;
+  c.source_points = Eigen::Matrix3Xd::Random(3, 10);
+  c.target_points = Eigen::Matrix3Xd::Random(3, 9);
+  expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kInvalidInput);
+}
+
+TEST(BadInput, InvalidParametersNameTheParameter) {
+  MacParams params;
+  params.graph.t_cmp = 1.5;
+  params.evaluation.inlier_threshold = -1.0;
+  const RegistrationResult result = registerCorrespondences(randomRigidSet(50, 1), params);
+  expectFailure(result, RegistrationStatus::kInvalidParameters);
+  EXPECT_NE(result.message.find("graph.t_cmp"), std::string::npos);
+  EXPECT_NE(result.message.find("evaluation.inlier_threshold"), std::string::npos);
+}
+
+TEST(BadInput, AllPointsEqualIsDegenerate) {
+  Correspondences c;
+  c.source_points = Eigen::Matrix3Xd::Constant(3, 50, 1.0);
+  c.target_points = Eigen::Matrix3Xd::Constant(3, 50, 2.0);
+  expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kNoValidHypothesis);
+}
+
+TEST(BadInput, CollinearPointsAreDegenerate) {
+  Correspondences c;
+  c.source_points.resize(3, 40);
+  for (int i = 0; i < 40; ++i) c.source_points.col(i) = Eigen::Vector3d(0.1 * i, 0.2 * i, -0.05 * i);
+  c.target_points =
+      (Eigen::Translation3d(1, 2, 3) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())) * c.source_points;
+  expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kNoValidHypothesis);
+}
+
+TEST(BadInput, NonFiniteCorrespondencesAreDroppedAndCounted) {
+  SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(300, 0.3, 3));
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  problem.correspondences.source_points(0, 5) = nan;
+  problem.correspondences.target_points(2, 17) = inf;
+  problem.correspondences.target_points(1, 18) = -inf;
+  const RegistrationResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_EQ(result.counters.dropped_non_finite, 3u);
+  EXPECT_TRUE(result.T_target_source.matrix().allFinite());
+  // Inlier indices refer to the caller's columns, so the dropped ones never appear.
+  for (int i : result.inlier_indices) EXPECT_TRUE(i != 5 && i != 17 && i != 18);
+  EXPECT_LT(rotationErrorDeg(result.T_target_source, problem.T_target_source), 2.0);
+}
+
+TEST(BadInput, AllNonFiniteIsTooFew) {
+  Correspondences c;
+  c.source_points = Eigen::Matrix3Xd::Constant(3, 20, std::numeric_limits<double>::quiet_NaN());
+  c.target_points = Eigen::Matrix3Xd::Zero(3, 20);
+  const RegistrationResult result = registerCorrespondences(c, MacParams{});
+  expectFailure(result, RegistrationStatus::kTooFewCorrespondences);
+  EXPECT_EQ(result.counters.dropped_non_finite, 20u);
+}
+
+TEST(BadInput, GraphWithoutEdges) {
+  // Target distances are 10x the source ones: no pair is rigidly compatible.
+  Correspondences c = randomRigidSet(100, 5);
+  c.target_points = 10.0 * c.source_points;
+  expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kEmptyGraph);
+}
+
+TEST(BadInput, AllOutliersEndsExplicitly) {
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.0, 9));
+  MacParams params = test::roomScaleParams();
+  params.evaluation.min_inliers = 10;  // a robot would not accept a pose on fewer
+  const RegistrationResult result = registerCorrespondences(problem.correspondences, params);
+  EXPECT_TRUE(result.T_target_source.matrix().allFinite());
+  if (result.success) {
+    EXPECT_GE(result.counters.inliers, 10u);
+  } else {
+    EXPECT_FALSE(result.message.empty());
+  }
+}
+
+// The case that makes a plain enumeration explode: 50 % inliers with 1 mm noise on 1000 correspondences
+// (the authors' code: 5.25 M maximal cliques, 12.8 GB). Here the bounds must hold and the pose be right.
+TEST(BadInput, CleanHighInlierSetStaysBounded) {
+  SyntheticSpec spec = test::roomScaleSpec(1000, 0.5, 13);
+  spec.noise_sigma = 0.001;
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), spec);
+  MacParams params = test::roomScaleParams();
+  params.cliques.max_cliques = 20000;
+  params.cliques.time_limit = 1.0;
+  const RegistrationResult result = registerCorrespondences(problem.correspondences, params);
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_LE(result.counters.cliques,
+            params.cliques.max_cliques * static_cast<std::size_t>(params.cliques.max_pruning_rounds + 1));
+  EXPECT_LE(result.counters.selected_cliques, problem.correspondences.size());
+  // The 500 inliers form a near-clique of degeneracy far above the bound: thinned, and reported.
+  EXPECT_GT(result.counters.degeneracy, params.cliques.max_degeneracy);
+  EXPECT_GT(result.counters.thinned_nodes, 0u);
+  EXPECT_FALSE(result.warnings.empty());
+  EXPECT_LT(rotationErrorDeg(result.T_target_source, problem.T_target_source), 2.0);
+  EXPECT_LT(translationError(result.T_target_source, problem.T_target_source), 0.05);
+}
+
+TEST(BadInput, CountBoundIsReportedAsIncompleteSearch) {
+  const SyntheticProblem problem =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.1, 17));
+  MacParams params = test::roomScaleParams();  // ~13 000 maximal cliques on this set
+  params.cliques.max_cliques = 10;
+  params.cliques.max_pruning_rounds = 0;
+  const RegistrationResult result = registerCorrespondences(problem.correspondences, params);
+  EXPECT_FALSE(result.clique_search_complete);
+  EXPECT_EQ(result.counters.cliques, 10u);
+  ASSERT_FALSE(result.warnings.empty());
+  EXPECT_NE(result.warnings.back().find("cliques.max_cliques"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mac_registration

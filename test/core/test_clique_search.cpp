@@ -1,0 +1,162 @@
+// Maximal clique search on small graphs whose cliques are known by hand.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <functional>
+#include <future>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "mac_registration/core/clique_search.hpp"
+
+namespace mac_registration {
+namespace {
+
+using Clique = std::vector<int>;
+
+// Unweighted (weight 1) graph from an edge list.
+CompatibilityGraph graphFromEdges(int n, std::vector<std::pair<int, int>> edges) {
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::vector<UpperEdge>> rows(n);
+  for (const auto& [a, b] : edges) rows[a].push_back({b, 1.0f});
+  return graphFromUpperRows(n, rows);
+}
+
+// Streams the cliques into a list; each must arrive in strictly ascending node order.
+struct Collected {
+  CliqueSearchStats stats;
+  std::vector<Clique> cliques;  // sorted, for comparison
+};
+
+Collected search(const CompatibilityGraph& graph, const CliqueSearchParams& params) {
+  Collected out;
+  out.stats = searchMaximalCliques(graph, params, [&](const int* nodes, std::size_t size) {
+    Clique clique(nodes, nodes + size);
+    EXPECT_TRUE(std::adjacent_find(clique.begin(), clique.end(), std::greater_equal<int>()) == clique.end())
+        << "clique not strictly ascending";
+    out.cliques.push_back(clique);
+  });
+  std::sort(out.cliques.begin(), out.cliques.end());
+  return out;
+}
+
+TEST(CliqueSearch, TwoTrianglesSharingAnEdge) {
+  const auto result = search(graphFromEdges(4, {{0, 1}, {0, 2}, {1, 2}, {1, 3}, {2, 3}}), {});
+  EXPECT_EQ(result.cliques, (std::vector<Clique>{{0, 1, 2}, {1, 2, 3}}));
+  EXPECT_EQ(result.stats.cliques, 2u);
+  EXPECT_TRUE(result.stats.complete);
+  EXPECT_FALSE(result.stats.hit_count_limit);
+  EXPECT_EQ(result.stats.pruning_rounds, 0);
+  EXPECT_EQ(result.stats.nodes_searched, 4u);
+  EXPECT_TRUE(result.stats.error.empty());
+}
+
+// K4 on 0-3 plus a triangle 3-4-5 hanging off node 3, and an isolated node 6.
+CompatibilityGraph k4AndPendantTriangle() {
+  return graphFromEdges(7, {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}, {3, 4}, {3, 5}, {4, 5}});
+}
+
+TEST(CliqueSearch, K4AndPendantTriangle) {
+  const auto result = search(k4AndPendantTriangle(), {});
+  EXPECT_EQ(result.cliques, (std::vector<Clique>{{0, 1, 2, 3}, {3, 4, 5}}));
+  EXPECT_EQ(result.stats.nodes_searched, 6u);  // node 6 is isolated
+}
+
+TEST(CliqueSearch, MinCliqueSizeFilters) {
+  CliqueSearchParams params;
+  params.min_clique_size = 4;
+  const auto result = search(k4AndPendantTriangle(), params);
+  EXPECT_EQ(result.cliques, (std::vector<Clique>{{0, 1, 2, 3}}));
+  EXPECT_TRUE(result.stats.complete);
+}
+
+TEST(CliqueSearch, NoTriangleNoClique) {
+  // A 5-cycle plus a pendant edge: maximal cliques are all edges, none of size >= 3.
+  const auto result = search(graphFromEdges(6, {{0, 1}, {1, 2}, {2, 3}, {3, 4}, {0, 4}, {4, 5}}), {});
+  EXPECT_TRUE(result.cliques.empty());
+  EXPECT_EQ(result.stats.cliques, 0u);
+  EXPECT_TRUE(result.stats.complete);
+
+  const auto empty = search(graphFromEdges(3, {}), {});
+  EXPECT_TRUE(empty.cliques.empty());
+  EXPECT_EQ(empty.stats.nodes_searched, 0u);
+}
+
+// Eight disjoint triangles of equal weight: every pruning round keeps half the nodes, which (ties to the
+// lower index) are whole triangles again, so every round still has more cliques than the bound.
+CompatibilityGraph disjointTriangles(int count) {
+  std::vector<std::pair<int, int>> edges;
+  for (int t = 0; t < count; ++t)
+    edges.insert(edges.end(), {{3 * t, 3 * t + 1}, {3 * t, 3 * t + 2}, {3 * t + 1, 3 * t + 2}});
+  return graphFromEdges(3 * count, edges);
+}
+
+TEST(CliqueSearch, CountLimitWithoutPruning) {
+  CliqueSearchParams params;
+  params.max_cliques = 1;
+  params.max_pruning_rounds = 0;
+  const auto result = search(disjointTriangles(8), params);
+  EXPECT_EQ(result.cliques.size(), 1u);
+  EXPECT_EQ(result.stats.cliques, 1u);
+  EXPECT_TRUE(result.stats.hit_count_limit);
+  EXPECT_FALSE(result.stats.complete);
+  EXPECT_EQ(result.stats.pruning_rounds, 0);
+}
+
+TEST(CliqueSearch, CountLimitPrunesAndRetries) {
+  CliqueSearchParams params;
+  params.max_cliques = 1;
+  params.max_pruning_rounds = 2;
+  params.time_limit = 30.0;  // only the count bound may stop these searches
+  const auto result = search(disjointTriangles(8), params);
+  // 24 nodes -> 12 -> 6, one clique streamed per search.
+  EXPECT_EQ(result.stats.pruning_rounds, 2);
+  EXPECT_EQ(result.stats.cliques, 3u);
+  EXPECT_EQ(result.cliques.size(), 3u);
+  EXPECT_EQ(result.stats.nodes_searched, 6u);
+  EXPECT_TRUE(result.stats.hit_count_limit);
+  EXPECT_FALSE(result.stats.hit_time_limit);
+  EXPECT_FALSE(result.stats.complete);
+  for (const auto& clique : result.cliques) {  // every streamed clique is a triangle of the full graph
+    ASSERT_EQ(clique.size(), 3u);
+    EXPECT_EQ(clique[0] % 3, 0);
+    EXPECT_EQ(clique[1], clique[0] + 1);
+    EXPECT_EQ(clique[2], clique[0] + 2);
+  }
+}
+
+TEST(CliqueSearch, PrunedSearchCanComplete) {
+  // Two triangles sharing an edge, bound 1: pruning to the 2 strongest nodes leaves no triangle, so the
+  // retry enumerates its (empty) graph completely.
+  CliqueSearchParams params;
+  params.max_cliques = 1;
+  params.max_pruning_rounds = 3;
+  params.time_limit = 30.0;
+  const auto result = search(graphFromEdges(4, {{0, 1}, {0, 2}, {1, 2}, {1, 3}, {2, 3}}), params);
+  EXPECT_TRUE(result.stats.hit_count_limit);
+  EXPECT_EQ(result.stats.pruning_rounds, 1);
+  EXPECT_TRUE(result.stats.complete);
+  EXPECT_EQ(result.stats.cliques, 1u);
+}
+
+TEST(CliqueSearch, ThrowingVisitorPropagatesAndReleasesLock) {
+  const CompatibilityGraph graph = k4AndPendantTriangle();
+  EXPECT_THROW(
+      searchMaximalCliques(graph, {}, [](const int*, std::size_t) { throw std::runtime_error("stop"); }),
+      std::runtime_error);
+
+  // If the process-wide igraph lock were still held, this search would block forever: run it on a
+  // detached thread and give it 20 s (it takes microseconds) instead of hanging the test binary.
+  auto task = std::make_shared<std::packaged_task<Collected()>>([graph] { return search(graph, {}); });
+  std::future<Collected> done = task->get_future();
+  std::thread([task] { (*task)(); }).detach();
+  ASSERT_EQ(done.wait_for(std::chrono::seconds(20)), std::future_status::ready) << "igraph lock not released";
+  EXPECT_EQ(done.get().cliques, (std::vector<Clique>{{0, 1, 2, 3}, {3, 4, 5}}));
+}
+
+}  // namespace
+}  // namespace mac_registration

@@ -1,0 +1,240 @@
+// First- and second-order compatibility graphs (paper Eq. 1-4) on hand-made inputs.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "mac_registration/core/compatibility_graph.hpp"
+
+namespace mac_registration {
+namespace {
+
+// Offsets consistent, lists strictly ascending, no self loops, every edge stored both ways with one weight.
+void expectValidGraph(const CompatibilityGraph& g) {
+  ASSERT_EQ(g.offsets.size(), static_cast<std::size_t>(g.num_nodes) + 1);
+  ASSERT_EQ(g.offsets.front(), 0);
+  ASSERT_EQ(static_cast<std::size_t>(g.offsets.back()), g.neighbours.size());
+  ASSERT_EQ(g.neighbours.size(), g.weights.size());
+  for (int i = 0; i < g.num_nodes; ++i) {
+    for (auto p = g.offsets[i]; p < g.offsets[i + 1]; ++p) {
+      const int j = g.neighbours[p];
+      EXPECT_NE(j, i);
+      if (p > g.offsets[i]) {
+        EXPECT_LT(g.neighbours[p - 1], j) << "node " << i;
+      }
+      EXPECT_EQ(g.weight(j, i), g.weights[p]) << "edge " << i << "-" << j << " is not symmetric";
+    }
+  }
+}
+
+// Five correspondences on a line: source at x_i, target at y_i = x_i + e_i along another direction in
+// another frame. With spacing 1 >> e, d_ij = | |x_i-x_j| - |y_i-y_j| | = |e_i - e_j| exactly:
+// d01 = 0.02, d02 = 0.05, d12 = 0.03, d34 = 0.01, every other pair >= 0.25.
+Correspondences lineCorrespondences(const std::vector<double>& e) {
+  const Eigen::Vector3d direction = Eigen::Vector3d(1.0, 2.0, 2.0) / 3.0;
+  const Eigen::Vector3d origin(5.0, -3.0, 1.0);
+  Correspondences c;
+  c.source_points.resize(3, static_cast<Eigen::Index>(e.size()));
+  c.target_points.resize(3, static_cast<Eigen::Index>(e.size()));
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    const double x = static_cast<double>(i);
+    c.source_points.col(i) = Eigen::Vector3d(x, 0.0, 0.0);
+    c.target_points.col(i) = origin + (x + e[i]) * direction;
+  }
+  return c;
+}
+
+const std::vector<double> kOffsets = {0.0, 0.02, 0.05, 0.3, 0.31};
+
+// Points are centred and stored in float (ulp ~2.4e-7 at 2 m), so d carries ~1e-6 error and the
+// weights ~1e-5 at most: 5e-5 tolerates that and still tells exp(-d^2/2s^2) from exp(-d^2/s^2).
+constexpr double kWeightTol = 5e-5;
+
+TEST(FirstOrderGraph, GaussianWeightsByHand) {
+  GraphParams params;
+  params.score = CompatibilityScore::kGaussian;
+  params.gaussian_sigma = 0.1;
+  params.t_cmp = 0.5;  // d <= 0.1 * sqrt(2 ln 2) = 0.1177: pairs 01, 02, 12, 34
+  const FirstOrderGraph fog = buildFirstOrderGraph(lineCorrespondences(kOffsets), params, 1);
+  expectValidGraph(fog.graph);
+  EXPECT_FALSE(fog.reduced);
+  ASSERT_EQ(fog.graph.num_nodes, 5);
+  EXPECT_EQ(fog.graph.numEdges(), 4u);
+  EXPECT_NEAR(fog.graph.weight(0, 1), std::exp(-0.02 * 0.02 / 0.02), kWeightTol);  // 0.98020
+  EXPECT_NEAR(fog.graph.weight(0, 2), std::exp(-0.05 * 0.05 / 0.02), kWeightTol);  // 0.88250
+  EXPECT_NEAR(fog.graph.weight(1, 2), std::exp(-0.03 * 0.03 / 0.02), kWeightTol);  // 0.95600
+  EXPECT_NEAR(fog.graph.weight(3, 4), std::exp(-0.01 * 0.01 / 0.02), kWeightTol);  // 0.99501
+  EXPECT_EQ(fog.graph.weight(2, 3), 0.0f);
+  EXPECT_EQ(fog.graph.weight(0, 4), 0.0f);
+  EXPECT_EQ(fog.graph.neighbours, (std::vector<int>{1, 2, 0, 2, 0, 1, 4, 3}));
+}
+
+TEST(FirstOrderGraph, QuadraticWeightsByHand) {
+  GraphParams params;
+  params.score = CompatibilityScore::kQuadratic;
+  params.quadratic_threshold = 0.1;
+  params.t_cmp = 0.8;  // d <= 0.1 * sqrt(0.2) = 0.0447: pairs 01, 12, 34 but not 02 (d = 0.05)
+  const FirstOrderGraph fog = buildFirstOrderGraph(lineCorrespondences(kOffsets), params, 1);
+  expectValidGraph(fog.graph);
+  EXPECT_EQ(fog.graph.numEdges(), 3u);
+  EXPECT_NEAR(fog.graph.weight(0, 1), 1.0 - 0.02 * 0.02 / 0.01, kWeightTol);  // 0.96
+  EXPECT_NEAR(fog.graph.weight(1, 2), 1.0 - 0.03 * 0.03 / 0.01, kWeightTol);  // 0.91
+  EXPECT_NEAR(fog.graph.weight(3, 4), 1.0 - 0.01 * 0.01 / 0.01, kWeightTol);  // 0.99
+  EXPECT_EQ(fog.graph.weight(0, 2), 0.0f);
+}
+
+// An edge exactly where S >= t_cmp: residuals 0.1% below and above the bound on d. The margin (>= 3e-5 m)
+// is over an order above the float error of d (~1e-6 m), so the outcome is not decided by rounding.
+TEST(FirstOrderGraph, EdgeExactlyWhereScoreReachesThreshold) {
+  for (const auto score : {CompatibilityScore::kGaussian, CompatibilityScore::kQuadratic}) {
+    GraphParams params;
+    params.score = score;
+    params.gaussian_sigma = 0.1;
+    params.quadratic_threshold = 0.1;
+    params.t_cmp = 0.9;
+    const double d_max = score == CompatibilityScore::kGaussian ? 0.1 * std::sqrt(-2.0 * std::log(0.9))
+                                                                : 0.1 * std::sqrt(1.0 - 0.9);
+    // d01 just inside, d02 just outside, d12 ~ 2 d_max.
+    const auto c = lineCorrespondences({0.0, d_max * (1.0 - 1e-3), -d_max * (1.0 + 1e-3)});
+    const FirstOrderGraph fog = buildFirstOrderGraph(c, params, 1);
+    EXPECT_EQ(fog.graph.numEdges(), 1u);
+    EXPECT_GT(fog.graph.weight(0, 1), 0.0f);
+    EXPECT_NEAR(fog.graph.weight(0, 1), 0.9, 1e-3);  // S at the bound is t_cmp
+    EXPECT_GE(fog.graph.weight(0, 1), 0.9 - 1e-5);
+    EXPECT_EQ(fog.graph.weight(0, 2), 0.0f);
+    EXPECT_EQ(fog.graph.weight(1, 2), 0.0f);
+  }
+}
+
+// Random rigid problem: the first `inliers` targets are R s + t, the rest uniform. Fixed seed.
+Correspondences rigidProblem(int n, int inliers, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Eigen::Isometry3d T =
+      Eigen::Translation3d(0.3, -0.2, 0.5) * Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, 3).normalized());
+  Correspondences c;
+  c.source_points.resize(3, n);
+  c.target_points.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    c.source_points.col(i) = Eigen::Vector3d(u(rng), u(rng), u(rng));
+    c.target_points.col(i) = i < inliers ? Eigen::Vector3d(T * Eigen::Vector3d(c.source_points.col(i)))
+                                         : Eigen::Vector3d(u(rng), u(rng), u(rng));
+  }
+  return c;
+}
+
+TEST(FirstOrderGraph, IdenticalForOneAndTwoThreads) {
+  const Correspondences c = rigidProblem(300, 210, 7);
+  const GraphParams params;  // Gaussian, sigma 0.1, t_cmp 0.99
+  const FirstOrderGraph one = buildFirstOrderGraph(c, params, 1);
+  const FirstOrderGraph two = buildFirstOrderGraph(c, params, 2);
+  expectValidGraph(one.graph);
+  EXPECT_GE(one.graph.numEdges(), 210u * 209u / 2u);  // every inlier pair is compatible
+  EXPECT_EQ(one.graph.offsets, two.graph.offsets);
+  EXPECT_EQ(one.graph.neighbours, two.graph.neighbours);
+  EXPECT_EQ(one.graph.weights, two.graph.weights);  // bitwise: each pair is computed the same way
+
+  const CompatibilityGraph sog1 = buildSecondOrderGraph(one.graph, 1);
+  const CompatibilityGraph sog2 = buildSecondOrderGraph(one.graph, 2);
+  expectValidGraph(sog1);
+  EXPECT_EQ(sog1.neighbours, sog2.neighbours);
+  EXPECT_EQ(sog1.weights, sog2.weights);
+}
+
+// 200 exact inliers make a complete graph of 19900 edges.
+TEST(FirstOrderGraph, MaxEdgesBound) {
+  const Correspondences c = rigidProblem(200, 200, 3);
+  GraphParams params;
+  params.max_edges = 19900;  // exactly fits: not reduced
+  FirstOrderGraph fog = buildFirstOrderGraph(c, params, 2);
+  EXPECT_FALSE(fog.reduced);
+  EXPECT_EQ(fog.graph.numEdges(), 19900u);
+
+  params.max_edges = 19899;  // one too few: reduced
+  EXPECT_TRUE(buildFirstOrderGraph(c, params, 2).reduced);
+
+  params.max_edges = 1000;
+  fog = buildFirstOrderGraph(c, params, 2);
+  expectValidGraph(fog.graph);
+  EXPECT_TRUE(fog.reduced);
+  EXPECT_LE(fog.graph.numEdges(), 1000u);
+  EXPECT_EQ(fog.graph.num_nodes, 200);  // node ids stay correspondence indices
+  // sqrt(2 * 1000) = 44 nodes kept; all have the same estimated degree, so ties keep nodes 0..43 and
+  // they form a complete graph of 44 * 43 / 2 = 946 edges.
+  EXPECT_EQ(fog.reduced_to, 44u);
+  EXPECT_EQ(fog.graph.numEdges(), 946u);
+  for (int i = 0; i < 200; ++i) EXPECT_EQ(fog.graph.degree(i), i < 44 ? 43 : 0) << "node " << i;
+}
+
+// Two triangles sharing edge 1-2 (0-1-2 and 1-2-3) plus a pendant edge 3-4 in no triangle.
+CompatibilityGraph twoTrianglesAndPendant() {
+  return graphFromUpperRows(5,
+                            {{{1, 0.5f}, {2, 0.8f}}, {{2, 0.9f}, {3, 0.6f}}, {{3, 0.7f}}, {{4, 1.0f}}, {}});
+}
+
+TEST(CompatibilityGraph, FromUpperRowsAndWeightLookup) {
+  const CompatibilityGraph g = twoTrianglesAndPendant();
+  expectValidGraph(g);
+  EXPECT_EQ(g.numEdges(), 6u);
+  EXPECT_EQ(g.degree(0), 2);
+  EXPECT_EQ(g.degree(2), 3);
+  EXPECT_EQ(g.degree(4), 1);
+  EXPECT_EQ(g.neighbours, (std::vector<int>{1, 2, 0, 2, 3, 0, 1, 3, 1, 2, 4, 3}));
+  EXPECT_FLOAT_EQ(g.weight(1, 3), 0.6f);
+  EXPECT_FLOAT_EQ(g.weight(3, 1), 0.6f);
+  EXPECT_FLOAT_EQ(g.weight(4, 3), 1.0f);
+  EXPECT_EQ(g.weight(0, 3), 0.0f);
+  EXPECT_EQ(g.weight(0, 4), 0.0f);
+  EXPECT_EQ(g.weight(2, 2), 0.0f);
+}
+
+// w_ij = S_ij * sum_k S_ik S_jk, computed by hand. Float sums of a few products: 1e-6.
+TEST(SecondOrderGraph, WeightsByHand) {
+  const CompatibilityGraph sog = buildSecondOrderGraph(twoTrianglesAndPendant(), 1);
+  expectValidGraph(sog);
+  EXPECT_EQ(sog.numEdges(), 5u);
+  EXPECT_NEAR(sog.weight(0, 1), 0.5 * (0.8 * 0.9), 1e-6);              // k = 2
+  EXPECT_NEAR(sog.weight(0, 2), 0.8 * (0.5 * 0.9), 1e-6);              // k = 1
+  EXPECT_NEAR(sog.weight(1, 2), 0.9 * (0.5 * 0.8 + 0.6 * 0.7), 1e-6);  // k = 0 and 3
+  EXPECT_NEAR(sog.weight(1, 3), 0.6 * (0.9 * 0.7), 1e-6);              // k = 2
+  EXPECT_NEAR(sog.weight(2, 3), 0.7 * (0.9 * 0.6), 1e-6);              // k = 1
+  EXPECT_EQ(sog.weight(3, 4), 0.0f);                                   // in no triangle: removed
+  EXPECT_EQ(sog.degree(4), 0);
+  EXPECT_DOUBLE_EQ(secondOrderWork(twoTrianglesAndPendant()), 3 + 3 + 3 + 3 + 3 + 1);  // deg(j) per edge i<j
+}
+
+TEST(CompatibilityGraph, KeepNodes) {
+  const CompatibilityGraph kept = keepNodes(twoTrianglesAndPendant(), {0, 1, 1, 1, 0});
+  expectValidGraph(kept);
+  EXPECT_EQ(kept.num_nodes, 5);
+  EXPECT_EQ(kept.numEdges(), 3u);
+  EXPECT_FLOAT_EQ(kept.weight(1, 2), 0.9f);
+  EXPECT_FLOAT_EQ(kept.weight(1, 3), 0.6f);
+  EXPECT_FLOAT_EQ(kept.weight(2, 3), 0.7f);
+  EXPECT_EQ(kept.degree(0), 0);
+  EXPECT_EQ(kept.degree(4), 0);
+}
+
+TEST(CompatibilityGraph, StrongestNodes) {
+  EXPECT_EQ(strongestNodes({1.0, 3.0, 3.0, 2.0}, 2), (std::vector<char>{0, 1, 1, 0}));
+  EXPECT_EQ(strongestNodes({1.0, 3.0, 3.0, 2.0}, 3), (std::vector<char>{0, 1, 1, 1}));
+  EXPECT_EQ(strongestNodes({2.0, 2.0, 2.0}, 1), (std::vector<char>{1, 0, 0}));  // ties to the lower index
+  EXPECT_EQ(strongestNodes({0.5, 1.0}, 10), (std::vector<char>{1, 1}));
+  EXPECT_EQ(strongestNodes({0.5, 1.0}, 0), (std::vector<char>{0, 0}));
+}
+
+TEST(CompatibilityGraph, NodeStrength) {
+  const std::vector<double> s = nodeStrength(twoTrianglesAndPendant());
+  ASSERT_EQ(s.size(), 5u);
+  // Weights are floats: 1e-6.
+  EXPECT_NEAR(s[0], 0.5 + 0.8, 1e-6);
+  EXPECT_NEAR(s[1], 0.5 + 0.9 + 0.6, 1e-6);
+  EXPECT_NEAR(s[2], 0.8 + 0.9 + 0.7, 1e-6);
+  EXPECT_NEAR(s[3], 0.6 + 0.7 + 1.0, 1e-6);
+  EXPECT_NEAR(s[4], 1.0, 1e-6);
+}
+
+}  // namespace
+}  // namespace mac_registration
