@@ -71,7 +71,7 @@ std::vector<SelectedClique> NodeGuidedSelector::selected() const {
 }
 
 std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
-                                                    const Correspondences& c, double threshold) {
+                                                    const CorrespondenceSet& c, double threshold) {
   const auto sine = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
     return a.cross(b).norm() / std::max(a.norm() * b.norm(), 1e-12);
   };

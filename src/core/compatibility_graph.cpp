@@ -45,7 +45,7 @@ __attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(cons
 struct PointsSoA {
   std::vector<float> sx, sy, sz, tx, ty, tz;
 
-  explicit PointsSoA(const Correspondences& c) {
+  explicit PointsSoA(const CorrespondenceSet& c) {
     const Eigen::Vector3d s0 = c.source_points.rowwise().mean();
     const Eigen::Vector3d t0 = c.target_points.rowwise().mean();
     const std::size_t n = c.size();
@@ -164,7 +164,7 @@ CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vect
   return graph;
 }
 
-FirstOrderGraph buildFirstOrderGraph(const Correspondences& correspondences, const GraphParams& params,
+FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
                                      int num_threads) {
   const int n = static_cast<int>(correspondences.size());
   FirstOrderGraph result;

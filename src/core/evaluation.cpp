@@ -5,7 +5,7 @@
 
 namespace mac_registration {
 
-HypothesisEvaluator::HypothesisEvaluator(const Correspondences& c, const EvaluationParams& params)
+HypothesisEvaluator::HypothesisEvaluator(const CorrespondenceSet& c, const EvaluationParams& params)
     : params_(params) {
   const std::size_t n = c.size();
   source_centroid_ = n ? Eigen::Vector3d(c.source_points.rowwise().mean()) : Eigen::Vector3d::Zero();
@@ -47,15 +47,18 @@ __attribute__((target_clones("avx2", "default"))) ScoreSums scoreKernel(const fl
                                                                         const float* t, float tau) {
   constexpr std::size_t kLanes = 8;
   float mae[kLanes] = {}, mse[kLanes] = {}, count[kLanes] = {};
-  const float inv_tau = 1.0f / tau;
+  const float inv_tau = 1.0f / tau, tau2 = tau * tau;
   const auto add = [&](std::size_t lane, float x, float y, float z, float u, float v, float w) {
     const float dx = r[0] * x + r[1] * y + r[2] * z + t[0] - u;
     const float dy = r[3] * x + r[4] * y + r[5] * z + t[1] - v;
     const float dz = r[6] * x + r[7] * y + r[8] * z + t[2] - w;
-    const float closeness = std::max(tau - std::sqrt(dx * dx + dy * dy + dz * dz), 0.0f) * inv_tau;
+    const float r2 = dx * dx + dy * dy + dz * dz;
+    // The same test as inliers(): r^2 < tau^2 (sqrt may round a residual just below tau up to tau).
+    const float inlier = r2 < tau2 ? 1.0f : 0.0f;
+    const float closeness = std::max(tau - std::sqrt(std::min(r2, tau2)), 0.0f) * inv_tau;
     mae[lane] += closeness;
     mse[lane] += closeness * closeness;
-    count[lane] += closeness > 0.0f ? 1.0f : 0.0f;
+    count[lane] += inlier;
   };
   std::size_t i = 0;
   for (; i + kLanes <= n; i += kLanes) {

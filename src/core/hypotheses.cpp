@@ -5,7 +5,7 @@
 
 namespace mac_registration {
 
-std::optional<Eigen::Isometry3d> estimateRigidTransform(const Correspondences& c,
+std::optional<Eigen::Isometry3d> estimateRigidTransform(const CorrespondenceSet& c,
                                                         const std::vector<int>& indices,
                                                         const std::vector<double>& weights) {
   if (indices.size() < 3) return std::nullopt;

@@ -23,7 +23,7 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-RegistrationResult& fail(RegistrationResult& result, RegistrationStatus status, const std::string& message) {
+MacResult& fail(MacResult& result, RegistrationStatus status, const std::string& message) {
   result.success = false;
   result.status = status;
   result.message = message;
@@ -32,7 +32,7 @@ RegistrationResult& fail(RegistrationResult& result, RegistrationStatus status, 
 
 // Bounds the cost of the SOG weights: a graph whose second-order pass would exceed the budget keeps only
 // its highest-degree nodes (inliers of a dense consensus have the highest degree), shrinking until it fits.
-CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, RegistrationResult& result) {
+CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, MacResult& result) {
   if (secondOrderWork(graph) <= budget) return graph;
   std::vector<double> degree(graph.num_nodes);
   std::size_t nodes = 0;
@@ -53,8 +53,8 @@ CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget,
   return reduced;
 }
 
-std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const Correspondences& c,
-                                          const MacParams& params, RegistrationResult& result) {
+std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const CorrespondenceSet& c,
+                                          const MacParams& params, MacResult& result) {
   NodeGuidedSelector selector(graph);
   Clock::duration selecting{0};
   const auto search_start = Clock::now();
@@ -110,9 +110,9 @@ struct BestHypothesis {
   bool found = false;
 };
 
-BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const Correspondences& c,
+BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const CorrespondenceSet& c,
                              const std::vector<double>& weights, const HypothesisEvaluator& evaluator,
-                             int threads, RegistrationResult& result) {
+                             int threads, MacResult& result) {
   auto start = Clock::now();
   const int count = static_cast<int>(cliques.size());
   std::vector<std::optional<Eigen::Isometry3d>> transforms(count);
@@ -142,7 +142,7 @@ BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const C
   return best;
 }
 
-void runPipeline(const Correspondences& input, const MacParams& params, RegistrationResult& result) {
+void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacResult& result) {
   const auto problems = validateParams(params);
   if (!problems.empty()) {
     std::string message = "invalid parameters:";
@@ -158,7 +158,7 @@ void runPipeline(const Correspondences& input, const MacParams& params, Registra
     fail(result, RegistrationStatus::kInvalidInput, e.what());
     return;
   }
-  const Correspondences& c = sane.correspondences;
+  const CorrespondenceSet& c = sane.correspondences;
   result.counters.dropped_non_finite = sane.dropped_non_finite;
   if (sane.dropped_non_finite > 0) {
     result.warnings.push_back("dropped " + std::to_string(sane.dropped_non_finite) +
@@ -279,8 +279,8 @@ const char* toString(RegistrationStatus status) {
   return "unknown";
 }
 
-RegistrationResult registerCorrespondences(const Correspondences& correspondences, const MacParams& params) {
-  RegistrationResult result;
+MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params) {
+  MacResult result;
   const auto start = Clock::now();
   try {
     runPipeline(correspondences, params, result);

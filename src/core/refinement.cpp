@@ -5,7 +5,7 @@
 namespace mac_registration {
 
 RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const HypothesisScore& initial_score,
-                                  const Correspondences& correspondences,
+                                  const CorrespondenceSet& correspondences,
                                   const HypothesisEvaluator& evaluator, const EvaluationParams& evaluation,
                                   const RefinementParams& params) {
   RefinementOutcome best;

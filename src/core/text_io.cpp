@@ -19,7 +19,7 @@ std::ifstream openForReading(const std::string& path) {
 
 }  // namespace
 
-Correspondences readCorrespondencesFile(const std::string& path) {
+CorrespondenceSet readCorrespondencesFile(const std::string& path) {
   std::ifstream in = openForReading(path);
   std::vector<double> values;
   std::string line;
@@ -50,7 +50,7 @@ Correspondences readCorrespondencesFile(const std::string& path) {
     values.insert(values.end(), v, v + 6);
   }
   const auto n = static_cast<Eigen::Index>(values.size() / 6);
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points.resize(3, n);
   c.target_points.resize(3, n);
   for (Eigen::Index i = 0; i < n; ++i) {

@@ -12,11 +12,11 @@
 namespace mac_registration {
 namespace {
 
-Correspondences randomRigidSet(int n, unsigned seed) {
+CorrespondenceSet randomRigidSet(int n, unsigned seed) {
   return makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(n, 1.0, seed)).correspondences;
 }
 
-void expectFailure(const RegistrationResult& result, RegistrationStatus status) {
+void expectFailure(const MacResult& result, RegistrationStatus status) {
   EXPECT_FALSE(result.success);
   EXPECT_EQ(result.status, status) << "got " << toString(result.status) << ": " << result.message;
   EXPECT_FALSE(result.message.empty());
@@ -25,7 +25,7 @@ void expectFailure(const RegistrationResult& result, RegistrationStatus status) 
 
 TEST(BadInput, FewerThanThreeCorrespondences) {
   for (int n : {0, 1, 2}) {
-    Correspondences c;
+    CorrespondenceSet c;
     c.source_points = Eigen::Matrix3Xd::Random(3, n);
     c.target_points = c.source_points;
     expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kTooFewCorrespondences);
@@ -33,7 +33,7 @@ TEST(BadInput, FewerThanThreeCorrespondences) {
 }
 
 TEST(BadInput, MismatchedSourceAndTargetCounts) {
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points = Eigen::Matrix3Xd::Random(3, 10);
   c.target_points = Eigen::Matrix3Xd::Random(3, 9);
   expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kInvalidInput);
@@ -43,21 +43,21 @@ TEST(BadInput, InvalidParametersNameTheParameter) {
   MacParams params;
   params.graph.t_cmp = 1.5;
   params.evaluation.inlier_threshold = -1.0;
-  const RegistrationResult result = registerCorrespondences(randomRigidSet(50, 1), params);
+  const MacResult result = registerCorrespondences(randomRigidSet(50, 1), params);
   expectFailure(result, RegistrationStatus::kInvalidParameters);
   EXPECT_NE(result.message.find("graph.t_cmp"), std::string::npos);
   EXPECT_NE(result.message.find("evaluation.inlier_threshold"), std::string::npos);
 }
 
 TEST(BadInput, AllPointsEqualIsDegenerate) {
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points = Eigen::Matrix3Xd::Constant(3, 50, 1.0);
   c.target_points = Eigen::Matrix3Xd::Constant(3, 50, 2.0);
   expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kNoValidHypothesis);
 }
 
 TEST(BadInput, CollinearPointsAreDegenerate) {
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points.resize(3, 40);
   for (int i = 0; i < 40; ++i) c.source_points.col(i) = Eigen::Vector3d(0.1 * i, 0.2 * i, -0.05 * i);
   c.target_points =
@@ -71,7 +71,7 @@ TEST(BadInput, NonFiniteCorrespondencesAreDroppedAndCounted) {
   problem.correspondences.source_points(0, 5) = nan;
   problem.correspondences.target_points(2, 17) = inf;
   problem.correspondences.target_points(1, 18) = -inf;
-  const RegistrationResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  const MacResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
   ASSERT_TRUE(result.success) << result.message;
   EXPECT_EQ(result.counters.dropped_non_finite, 3u);
   EXPECT_TRUE(result.T_target_source.matrix().allFinite());
@@ -81,17 +81,17 @@ TEST(BadInput, NonFiniteCorrespondencesAreDroppedAndCounted) {
 }
 
 TEST(BadInput, AllNonFiniteIsTooFew) {
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points = Eigen::Matrix3Xd::Constant(3, 20, std::numeric_limits<double>::quiet_NaN());
   c.target_points = Eigen::Matrix3Xd::Zero(3, 20);
-  const RegistrationResult result = registerCorrespondences(c, MacParams{});
+  const MacResult result = registerCorrespondences(c, MacParams{});
   expectFailure(result, RegistrationStatus::kTooFewCorrespondences);
   EXPECT_EQ(result.counters.dropped_non_finite, 20u);
 }
 
 TEST(BadInput, GraphWithoutEdges) {
   // Target distances are 10x the source ones: no pair is rigidly compatible.
-  Correspondences c = randomRigidSet(100, 5);
+  CorrespondenceSet c = randomRigidSet(100, 5);
   c.target_points = 10.0 * c.source_points;
   expectFailure(registerCorrespondences(c, MacParams{}), RegistrationStatus::kEmptyGraph);
 }
@@ -100,7 +100,7 @@ TEST(BadInput, AllOutliersEndsExplicitly) {
   const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.0, 9));
   MacParams params = test::roomScaleParams();
   params.evaluation.min_inliers = 10;  // a robot would not accept a pose on fewer
-  const RegistrationResult result = registerCorrespondences(problem.correspondences, params);
+  const MacResult result = registerCorrespondences(problem.correspondences, params);
   EXPECT_TRUE(result.T_target_source.matrix().allFinite());
   if (result.success) {
     EXPECT_GE(result.counters.inliers, 10u);
@@ -118,7 +118,7 @@ TEST(BadInput, CleanHighInlierSetStaysBounded) {
   MacParams params = test::roomScaleParams();
   params.cliques.max_cliques = 20000;
   params.cliques.time_limit = 1.0;
-  const RegistrationResult result = registerCorrespondences(problem.correspondences, params);
+  const MacResult result = registerCorrespondences(problem.correspondences, params);
   ASSERT_TRUE(result.success) << result.message;
   EXPECT_LE(result.counters.cliques,
             params.cliques.max_cliques * static_cast<std::size_t>(params.cliques.max_pruning_rounds + 1));
@@ -137,7 +137,7 @@ TEST(BadInput, CountBoundIsReportedAsIncompleteSearch) {
   MacParams params = test::roomScaleParams();  // ~13 000 maximal cliques on this set
   params.cliques.max_cliques = 10;
   params.cliques.max_pruning_rounds = 0;
-  const RegistrationResult result = registerCorrespondences(problem.correspondences, params);
+  const MacResult result = registerCorrespondences(problem.correspondences, params);
   EXPECT_FALSE(result.clique_search_complete);
   EXPECT_EQ(result.counters.cliques, 10u);
   ASSERT_FALSE(result.warnings.empty());

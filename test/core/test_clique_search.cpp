@@ -143,6 +143,27 @@ TEST(CliqueSearch, PrunedSearchCanComplete) {
   EXPECT_EQ(result.stats.cliques, 1u);
 }
 
+TEST(CliqueSearch, MaxDegeneracyThinsDenseCores) {
+  // K5 (nodes 0-4) has degeneracy 4; a bound of 3 keeps its 3 strongest nodes and leaves out 2: node 4,
+  // whose pendant edge to 5 makes it the strongest, then 0 and 1 (ties go to the lower index). Node 5
+  // (core 1) is never thinned, but {4,5} is too small to report.
+  std::vector<std::pair<int, int>> edges = {{4, 5}};
+  for (int a = 0; a < 5; ++a) {
+    for (int b = a + 1; b < 5; ++b) edges.push_back({a, b});
+  }
+  CliqueSearchParams params;
+  params.max_degeneracy = 3;
+  const auto thinned = search(graphFromEdges(6, edges), params);
+  EXPECT_EQ(thinned.stats.degeneracy, 4);
+  EXPECT_EQ(thinned.stats.thinned_nodes, 2u);
+  EXPECT_EQ(thinned.cliques, (std::vector<Clique>{{0, 1, 4}}));
+
+  params.max_degeneracy = 0;  // no bound
+  const auto full = search(graphFromEdges(6, edges), params);
+  EXPECT_EQ(full.stats.thinned_nodes, 0u);
+  EXPECT_EQ(full.cliques, (std::vector<Clique>{{0, 1, 2, 3, 4}}));
+}
+
 TEST(CliqueSearch, ThrowingVisitorPropagatesAndReleasesLock) {
   const CompatibilityGraph graph = k4AndPendantTriangle();
   EXPECT_THROW(

@@ -91,8 +91,8 @@ TEST(NodeGuidedSelector, NothingOffered) { EXPECT_TRUE(select(handGraph(), {}).e
 // Normals: pair (0,3) has source sine 0 but target sine 0.5 (30 deg); pair (2,3) has source sine 1 but
 // target sine sin(60 deg) = 0.866; every other pair has sine 1 on both sides. Node 1's target normal is
 // flipped and node 2's source normal has length 2: neither changes a sine.
-Correspondences normalsCase() {
-  Correspondences c;
+CorrespondenceSet normalsCase() {
+  CorrespondenceSet c;
   c.source_points = Eigen::Matrix3Xd::Zero(3, 4);
   c.target_points = Eigen::Matrix3Xd::Zero(3, 4);
   c.source_normals.resize(3, 4);
@@ -108,7 +108,7 @@ Correspondences normalsCase() {
 }
 
 TEST(NormalConsistency, HandMadeNormals) {
-  const Correspondences c = normalsCase();
+  const CorrespondenceSet c = normalsCase();
   ASSERT_TRUE(c.hasNormals());
   const std::vector<SelectedClique> cliques = {{{0, 1, 2}, 5.0}, {{1, 2, 3}, 4.0}, {{0, 1, 3}, 3.0}};
   // |sin a_s - sin a_t|: {0,1,2} all 0; {1,2,3} worst 0.134; {0,1,3} worst 0.5.

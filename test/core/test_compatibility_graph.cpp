@@ -32,10 +32,10 @@ void expectValidGraph(const CompatibilityGraph& g) {
 // Five correspondences on a line: source at x_i, target at y_i = x_i + e_i along another direction in
 // another frame. With spacing 1 >> e, d_ij = | |x_i-x_j| - |y_i-y_j| | = |e_i - e_j| exactly:
 // d01 = 0.02, d02 = 0.05, d12 = 0.03, d34 = 0.01, every other pair >= 0.25.
-Correspondences lineCorrespondences(const std::vector<double>& e) {
+CorrespondenceSet lineCorrespondences(const std::vector<double>& e) {
   const Eigen::Vector3d direction = Eigen::Vector3d(1.0, 2.0, 2.0) / 3.0;
   const Eigen::Vector3d origin(5.0, -3.0, 1.0);
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points.resize(3, static_cast<Eigen::Index>(e.size()));
   c.target_points.resize(3, static_cast<Eigen::Index>(e.size()));
   for (std::size_t i = 0; i < e.size(); ++i) {
@@ -109,12 +109,12 @@ TEST(FirstOrderGraph, EdgeExactlyWhereScoreReachesThreshold) {
 }
 
 // Random rigid problem: the first `inliers` targets are R s + t, the rest uniform. Fixed seed.
-Correspondences rigidProblem(int n, int inliers, unsigned seed) {
+CorrespondenceSet rigidProblem(int n, int inliers, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const Eigen::Isometry3d T =
       Eigen::Translation3d(0.3, -0.2, 0.5) * Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, 3).normalized());
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points.resize(3, n);
   c.target_points.resize(3, n);
   for (int i = 0; i < n; ++i) {
@@ -126,7 +126,7 @@ Correspondences rigidProblem(int n, int inliers, unsigned seed) {
 }
 
 TEST(FirstOrderGraph, IdenticalForOneAndTwoThreads) {
-  const Correspondences c = rigidProblem(300, 210, 7);
+  const CorrespondenceSet c = rigidProblem(300, 210, 7);
   const GraphParams params;  // Gaussian, sigma 0.1, t_cmp 0.99
   const FirstOrderGraph one = buildFirstOrderGraph(c, params, 1);
   const FirstOrderGraph two = buildFirstOrderGraph(c, params, 2);
@@ -145,7 +145,7 @@ TEST(FirstOrderGraph, IdenticalForOneAndTwoThreads) {
 
 // 200 exact inliers make a complete graph of 19900 edges.
 TEST(FirstOrderGraph, MaxEdgesBound) {
-  const Correspondences c = rigidProblem(200, 200, 3);
+  const CorrespondenceSet c = rigidProblem(200, 200, 3);
   GraphParams params;
   params.max_edges = 19900;  // exactly fits: not reduced
   FirstOrderGraph fog = buildFirstOrderGraph(c, params, 2);
@@ -234,6 +234,72 @@ TEST(CompatibilityGraph, NodeStrength) {
   EXPECT_NEAR(s[2], 0.8 + 0.9 + 0.7, 1e-6);
   EXPECT_NEAR(s[3], 0.6 + 0.7 + 1.0, 1e-6);
   EXPECT_NEAR(s[4], 1.0, 1e-6);
+}
+
+// Core numbers by repeated peeling: node v is in the k-core while it keeps >= k neighbours in it.
+std::vector<int> bruteForceCores(const CompatibilityGraph& g) {
+  std::vector<int> core(g.num_nodes, 0);
+  for (int k = 1;; ++k) {
+    std::vector<char> alive(g.num_nodes, 1);
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (int v = 0; v < g.num_nodes; ++v) {
+        if (!alive[v]) continue;
+        int degree = 0;
+        for (auto p = g.offsets[v]; p < g.offsets[v + 1]; ++p) degree += alive[g.neighbours[p]];
+        if (degree < k) alive[v] = 0, changed = true;
+      }
+    }
+    bool any = false;
+    for (int v = 0; v < g.num_nodes; ++v) {
+      if (alive[v]) core[v] = k, any = true;
+    }
+    if (!any) return core;
+  }
+}
+
+TEST(CompatibilityGraph, CoreNumbers) {
+  // By hand: the two triangles make a 2-core {0,1,2,3}; the pendant node 4 has core 1.
+  EXPECT_EQ(coreNumbers(twoTrianglesAndPendant()), (std::vector<int>{2, 2, 2, 2, 1}));
+  // K4 (core 3) with a triangle on node 3 (core 2) and an isolated node (core 0).
+  const CompatibilityGraph k4 = graphFromUpperRows(
+      7, {{{1, 1}, {2, 1}, {3, 1}}, {{2, 1}, {3, 1}}, {{3, 1}}, {{4, 1}, {5, 1}}, {{5, 1}}, {}, {}});
+  EXPECT_EQ(coreNumbers(k4), (std::vector<int>{3, 3, 3, 3, 2, 2, 0}));
+  // Random graphs (fixed seed) against the peeling definition.
+  std::mt19937 rng(17);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 30;
+    std::bernoulli_distribution edge(0.05 + 0.02 * trial);
+    std::vector<std::vector<UpperEdge>> rows(n);
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) {
+        if (edge(rng)) rows[i].push_back({j, 1.0f});
+      }
+    }
+    const CompatibilityGraph g = graphFromUpperRows(n, rows);
+    EXPECT_EQ(coreNumbers(g), bruteForceCores(g)) << "trial " << trial;
+  }
+}
+
+TEST(CompatibilityGraph, OtsuThresholdSeparatesLightFromHeavyEdges) {
+  // Light edges 0.1, 0.1, 0.12 and heavy ones 0.9, 0.95, 1.0: the cut falls between 0.12 and 0.9.
+  const CompatibilityGraph g = graphFromUpperRows(
+      6, {{{1, 0.1f}, {2, 0.9f}}, {{2, 0.12f}, {3, 0.95f}}, {{3, 0.1f}}, {{4, 1.0f}}, {}, {}});
+  const float threshold = otsuEdgeThreshold(g);
+  EXPECT_GT(threshold, 0.12f);
+  EXPECT_LE(threshold, 0.9f);
+  const CompatibilityGraph heavy = withoutWeakEdges(g, threshold);
+  expectValidGraph(heavy);
+  EXPECT_EQ(heavy.numEdges(), 3u);
+  EXPECT_EQ(heavy.weight(0, 2), 0.9f);
+  EXPECT_EQ(heavy.weight(1, 3), 0.95f);
+  EXPECT_EQ(heavy.weight(3, 4), 1.0f);
+  // An edge exactly at the threshold stays; equal weights give that weight and keep everything.
+  EXPECT_EQ(withoutWeakEdges(g, 0.9f).numEdges(), 3u);
+  const CompatibilityGraph flat = graphFromUpperRows(3, {{{1, 0.5f}, {2, 0.5f}}, {{2, 0.5f}}, {}});
+  EXPECT_EQ(otsuEdgeThreshold(flat), 0.5f);
+  EXPECT_EQ(withoutWeakEdges(flat, otsuEdgeThreshold(flat)).numEdges(), 3u);
+  EXPECT_EQ(otsuEdgeThreshold(graphFromUpperRows(2, {{}, {}})), 0.0f);
 }
 
 }  // namespace

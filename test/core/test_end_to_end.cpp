@@ -17,7 +17,7 @@ class SyntheticRegistration : public ::testing::TestWithParam<std::tuple<int, do
 TEST_P(SyntheticRegistration, RecoversKnownTransform) {
   const auto [n, ratio] = GetParam();
   const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(n, ratio, 7));
-  const RegistrationResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  const MacResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
   ASSERT_TRUE(result.success) << toString(result.status) << ": " << result.message;
   // 2 deg is the bound; with >= 12 inliers at 5 mm noise on a 3 m object the SVD error is far
   // below it. 5 cm translation = 10 noise sigmas, the evaluation threshold.
@@ -38,9 +38,9 @@ TEST(SyntheticRegistration, SameResultWhateverTheThreadCount) {
       makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(2000, 0.1, 11));
   MacParams params = test::roomScaleParams();
   params.num_threads = 1;
-  const RegistrationResult one = registerCorrespondences(problem.correspondences, params);
+  const MacResult one = registerCorrespondences(problem.correspondences, params);
   params.num_threads = 2;
-  const RegistrationResult two = registerCorrespondences(problem.correspondences, params);
+  const MacResult two = registerCorrespondences(problem.correspondences, params);
   ASSERT_TRUE(one.success);
   EXPECT_TRUE(one.T_target_source.matrix() == two.T_target_source.matrix());  // bitwise, not approximately
   EXPECT_EQ(one.inlier_indices, two.inlier_indices);
@@ -50,12 +50,12 @@ TEST(SyntheticRegistration, SameResultWhateverTheThreadCount) {
 
 // Real FPFH correspondences of 3DMatch redkitchen fragments 24 -> 59: 5678 matches, 210 inliers (3.7 %).
 TEST(RealCorrespondences, RedkitchenPairMeetsTheBenchmarkCriterion) {
-  const Correspondences c = readCorrespondencesFile(dataPath("redkitchen_24_59/correspondences.txt"));
+  const CorrespondenceSet c = readCorrespondencesFile(dataPath("redkitchen_24_59/correspondences.txt"));
   const Eigen::Isometry3d truth = readTransformFile(dataPath("redkitchen_24_59/T_target_source_gt.txt"));
   ASSERT_EQ(c.size(), 5678u);
   MacParams params;  // defaults are the indoor ones: tau 0.1 m
   params.graph.gaussian_sigma = 0.05;
-  const RegistrationResult result = registerCorrespondences(c, params);
+  const MacResult result = registerCorrespondences(c, params);
   ASSERT_TRUE(result.success) << result.message;
   // 3DMatch registration recall criterion.
   EXPECT_LE(rotationErrorDeg(result.T_target_source, truth), 15.0);

@@ -16,9 +16,9 @@ const Eigen::Isometry3d kT = Eigen::Translation3d(1.0, 2.0, -0.5) *
 // first four are inliers (0.09 < 0.1, and 0.15, 0.5 are not).
 const std::vector<double> kResiduals = {0.0, 0.02, 0.05, 0.09, 0.15, 0.5};
 
-Correspondences withResiduals(const Eigen::Vector3d& offset) {
+CorrespondenceSet withResiduals(const Eigen::Vector3d& offset) {
   const int n = static_cast<int>(kResiduals.size());
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points.resize(3, n);
   c.target_points.resize(3, n);
   for (int i = 0; i < n; ++i) {
@@ -100,6 +100,21 @@ TEST(BestHypothesis, HighestScoreEarliestAmongEquals) {
   EXPECT_EQ(bestHypothesis(scores({0.0, 0.0})), 0);
   EXPECT_EQ(bestHypothesis(scores({-1.0, -0.5})), 1);
   EXPECT_EQ(bestHypothesis({}), -1);
+}
+
+// score() and inliers() must agree on a residual just below tau: for r^2 one float step below tau^2,
+// sqrtf(r^2) rounds to tau, so a test on sqrt would call it an outlier while r^2 < tau^2 calls it an inlier.
+// Found by a random search near |r| = tau.
+TEST(HypothesisEvaluator, ScoreAndInliersAgreeAtThreshold) {
+  CorrespondenceSet c;
+  c.source_points = Eigen::Matrix3Xd::Zero(3, 1);
+  c.target_points.resize(3, 1);
+  c.target_points.col(0) = Eigen::Vector3d(-0.046378090554831899, -0.088594989415602607, 0.0);
+  const HypothesisEvaluator evaluator(c, paramsFor(ScoreMetric::kInlierCount));
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  ASSERT_LT(evaluator.residuals(identity)[0], 0.1);
+  EXPECT_EQ(evaluator.inliers(identity).size(), 1u);
+  EXPECT_EQ(evaluator.score(identity).inliers, evaluator.inliers(identity).size());
 }
 
 }  // namespace

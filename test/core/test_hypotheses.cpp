@@ -19,8 +19,8 @@ constexpr double kTol = 1e-9;
 const Eigen::Isometry3d kTruth =
     Eigen::Translation3d(0.5, -1.2, 2.0) * Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized());
 
-Correspondences fromPoints(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target) {
-  Correspondences c;
+CorrespondenceSet fromPoints(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target) {
+  CorrespondenceSet c;
   c.source_points = source;
   c.target_points = target;
   return c;
@@ -93,7 +93,7 @@ TEST(EstimateRigidTransform, ZeroWeightsExcludeOutliers) {
   Eigen::Matrix3Xd target = kTruth * source;
   target.col(1) += Eigen::Vector3d(2.0, 0.0, -1.0);
   target.col(6) += Eigen::Vector3d(-0.5, 1.5, 0.7);
-  const Correspondences c = fromPoints(source, target);
+  const CorrespondenceSet c = fromPoints(source, target);
   // Unequal weights on the inliers do not matter for exact data; zero weights remove the outliers.
   const std::vector<double> weights = {1.0, 0.0, 0.5, 2.0, 1.0, 3.0, 0.0, 0.25};
   const auto T = estimateRigidTransform(c, all(8), weights);
@@ -107,7 +107,7 @@ TEST(EstimateRigidTransform, ZeroWeightsExcludeOutliers) {
 
 TEST(EstimateRigidTransform, DegenerateInputsGiveNothing) {
   const Eigen::Matrix3Xd source = randomPoints(4, 14);
-  const Correspondences good = fromPoints(source, kTruth * source);
+  const CorrespondenceSet good = fromPoints(source, kTruth * source);
   EXPECT_FALSE(estimateRigidTransform(good, {}).has_value());
   EXPECT_FALSE(estimateRigidTransform(good, {0, 1}).has_value());
   EXPECT_FALSE(estimateRigidTransform(good, all(4), {0.0, 0.0, 0.0, 0.0}).has_value());  // no weight

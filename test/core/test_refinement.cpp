@@ -5,6 +5,7 @@
 #include <random>
 #include <vector>
 
+#include "mac_registration/core/hypotheses.hpp"
 #include "mac_registration/core/refinement.hpp"
 
 namespace mac_registration {
@@ -15,11 +16,11 @@ const Eigen::Isometry3d kTruth =
 
 // 200 correspondences in a 2 m cube, the first 120 inliers with 1 cm Gaussian noise per axis, the rest
 // uniform outliers. Fixed seed.
-Correspondences noisyProblem() {
+CorrespondenceSet noisyProblem() {
   std::mt19937 rng(42);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::normal_distribution<double> noise(0.0, 0.01);
-  Correspondences c;
+  CorrespondenceSet c;
   c.source_points.resize(3, 200);
   c.target_points.resize(3, 200);
   for (int i = 0; i < 200; ++i) {
@@ -39,7 +40,7 @@ double rotationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
 }
 
 struct RefineTransform : ::testing::Test {
-  Correspondences c = noisyProblem();
+  CorrespondenceSet c = noisyProblem();
   EvaluationParams evaluation;  // MAE, tau = 0.1
   HypothesisEvaluator evaluator{c, evaluation};
   RefinementParams params;
@@ -106,6 +107,41 @@ TEST_F(RefineTransform, IterationCapIsRespected) {
   EXPECT_EQ(out.iterations, 1);
   EXPECT_LE(out.improvements, 1);
   EXPECT_GE(out.score.score, evaluator.score(initial).score);
+}
+
+// A refit that scores worse must be refused. Ten exact correspondences and five shifted by 9 cm (inliers,
+// just under tau): the reweighted least-squares fit is pulled ~2 cm towards the shifted five, which costs
+// the exact ten more MAE than the five gain, so the initial (true) transform must come back unchanged.
+TEST(RefineTransformAlone, WorseRefitIsRejected) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  CorrespondenceSet c;
+  c.source_points.resize(3, 15);
+  c.target_points.resize(3, 15);
+  for (int i = 0; i < 15; ++i) {
+    const Eigen::Vector3d s(u(rng), u(rng), u(rng));
+    c.source_points.col(i) = s;
+    c.target_points.col(i) =
+        kTruth * s + (i < 10 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0.09, 0.0, 0.0));
+  }
+  const EvaluationParams evaluation;  // MAE, tau = 0.1
+  const HypothesisEvaluator evaluator(c, evaluation);
+  const HypothesisScore initial_score = evaluator.score(kTruth);
+  ASSERT_EQ(initial_score.inliers, 15u);
+
+  // Precondition: the refit the first round computes is indeed worse.
+  const std::vector<double> r = evaluator.residuals(kTruth);
+  std::vector<double> weights(15);
+  for (int i = 0; i < 15; ++i) weights[i] = 1.0 / (1.0 + (r[i] / 0.1) * (r[i] / 0.1));
+  const auto refit = estimateRigidTransform(c, evaluator.inliers(kTruth), weights);
+  ASSERT_TRUE(refit.has_value());
+  ASSERT_LT(evaluator.score(*refit).score, initial_score.score);
+
+  const RefinementOutcome out = refineTransform(kTruth, initial_score, c, evaluator, evaluation, {});
+  EXPECT_EQ(out.improvements, 0);
+  EXPECT_EQ(out.iterations, 1);
+  EXPECT_TRUE(out.T_target_source.matrix() == kTruth.matrix());
+  EXPECT_EQ(out.score.score, initial_score.score);
 }
 
 }  // namespace

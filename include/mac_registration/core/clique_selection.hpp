@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 
 namespace mac_registration {
 
@@ -43,7 +43,8 @@ class NodeGuidedSelector {
 // Keeps the cliques whose every pair of correspondences is normal-consistent (paper Eq. 5):
 // |sin a_s - sin a_t| < threshold, a_s the angle between the two source normals, a_t between the target ones.
 std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
-                                                    const Correspondences& correspondences, double threshold);
+                                                    const CorrespondenceSet& correspondences,
+                                                    double threshold);
 
 // The k heaviest cliques (all when k == 0), heaviest first; equal weights keep their order.
 std::vector<SelectedClique> heaviestCliques(std::vector<SelectedClique> cliques, std::size_t k);

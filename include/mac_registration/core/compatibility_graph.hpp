@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/parameters.hpp"
 
 namespace mac_registration {
@@ -41,7 +41,7 @@ struct FirstOrderGraph {
 
 // First-order compatibility graph (FOG, paper Eq. 1-2): an edge where the score is >= t_cmp, weighted by
 // the score. Both scores are monotone in d, so each pair is tested against a precomputed bound on d^2.
-FirstOrderGraph buildFirstOrderGraph(const Correspondences& correspondences, const GraphParams& params,
+FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
                                      int num_threads);
 
 // Second-order weights (paper Eq. 4): w_ij = S_ij * sum_k S_ik S_jk over common neighbours k, on the

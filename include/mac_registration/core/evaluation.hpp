@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/parameters.hpp"
 
 namespace mac_registration {
@@ -20,7 +20,7 @@ struct HypothesisScore {
 // sub-millimetre precision for map-sized coordinates.
 class HypothesisEvaluator {
  public:
-  HypothesisEvaluator(const Correspondences& correspondences, const EvaluationParams& params);
+  HypothesisEvaluator(const CorrespondenceSet& correspondences, const EvaluationParams& params);
 
   HypothesisScore score(const Eigen::Isometry3d& T_target_source) const;
   // Indices whose residual is below tau, and the residuals of all correspondences.

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 
 namespace mac_registration {
 
@@ -14,7 +14,7 @@ namespace mac_registration {
 // (det < 0) is turned into the nearest rotation by flipping the last singular vector. Returns nothing when
 // the points do not fix a rotation: fewer than three, all equal, or collinear (second singular value of
 // the cross-covariance below 1e-6 of the first), or a non-positive total weight.
-std::optional<Eigen::Isometry3d> estimateRigidTransform(const Correspondences& correspondences,
+std::optional<Eigen::Isometry3d> estimateRigidTransform(const CorrespondenceSet& correspondences,
                                                         const std::vector<int>& indices,
                                                         const std::vector<double>& weights = {});
 

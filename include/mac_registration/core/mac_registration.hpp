@@ -1,8 +1,8 @@
 #pragma once
 
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
+#include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
-#include "mac_registration/core/registration_result.hpp"
 
 namespace mac_registration {
 
@@ -11,6 +11,6 @@ namespace mac_registration {
 // all correspondences, refinement. Never throws for bad input or parameters and never prints: every
 // outcome is in the result (success, status, message, warnings, counters, time per stage). The same input
 // and parameters give the same result whatever num_threads is.
-RegistrationResult registerCorrespondences(const Correspondences& correspondences, const MacParams& params);
+MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params);
 
 }  // namespace mac_registration

@@ -2,7 +2,7 @@
 
 #include <Eigen/Geometry>
 
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/evaluation.hpp"
 #include "mac_registration/core/parameters.hpp"
 
@@ -19,7 +19,7 @@ struct RefinementOutcome {
 // Stops when a round does not raise the score and returns the best transform seen, never a worse one than
 // `initial`.
 RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const HypothesisScore& initial_score,
-                                  const Correspondences& correspondences,
+                                  const CorrespondenceSet& correspondences,
                                   const HypothesisEvaluator& evaluator, const EvaluationParams& evaluation,
                                   const RefinementParams& params);
 

@@ -3,13 +3,13 @@
 #include <Eigen/Geometry>
 #include <string>
 
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 
 namespace mac_registration {
 
 // Reads correspondences from text, one a line: "xs ys zs xt yt zt" (blank lines and lines starting with
 // '#' are skipped). Throws std::runtime_error naming the file and line when it cannot be read.
-Correspondences readCorrespondencesFile(const std::string& path);
+CorrespondenceSet readCorrespondencesFile(const std::string& path);
 
 // Reads a 4x4 matrix (16 numbers, row-major; a trailing "0 0 0 1" row may be omitted). Throws
 // std::runtime_error when the file has fewer than 12 numbers.

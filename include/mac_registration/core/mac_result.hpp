@@ -50,7 +50,7 @@ struct RegistrationCounters {
   int refinement_iterations = 0;
 };
 
-struct RegistrationResult {
+struct MacResult {
   bool success = false;
   RegistrationStatus status = RegistrationStatus::kInternalError;
   std::string message;                // why it failed, or a one-line summary on success

@@ -1,11 +1,11 @@
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 
 #include <stdexcept>
 #include <string>
 
 namespace mac_registration {
 
-SanitizedCorrespondences sanitizeCorrespondences(const Correspondences& input) {
+SanitizedCorrespondences sanitizeCorrespondences(const CorrespondenceSet& input) {
   const auto n = input.source_points.cols();
   if (input.target_points.cols() != n) {
     throw std::invalid_argument("source has " + std::to_string(n) + " points but target has " +

@@ -9,7 +9,7 @@ namespace mac_registration {
 // A set of putative point correspondences c_i = (source_i, target_i), column i of each matrix.
 // Points are in metres, each in its own cloud's frame. Normals are optional (empty matrices, or unit
 // vectors column-aligned with the points) and only used by the normal-consistency filter.
-struct Correspondences {
+struct CorrespondenceSet {
   Eigen::Matrix3Xd source_points;
   Eigen::Matrix3Xd target_points;
   Eigen::Matrix3Xd source_normals;
@@ -24,7 +24,7 @@ struct Correspondences {
 
 // The correspondences that survived input sanitation, plus where each came from in the caller's set.
 struct SanitizedCorrespondences {
-  Correspondences correspondences;
+  CorrespondenceSet correspondences;
   std::vector<int> original_index;  // original_index[k] = index in the caller's set of column k
   std::size_t dropped_non_finite = 0;
 };
@@ -32,6 +32,6 @@ struct SanitizedCorrespondences {
 // Drops correspondences with a NaN/Inf coordinate (points, or normals when present). Throws
 // std::invalid_argument when the source/target (or normal) column counts disagree, because that is a
 // caller bug no filtering can repair.
-SanitizedCorrespondences sanitizeCorrespondences(const Correspondences& input);
+SanitizedCorrespondences sanitizeCorrespondences(const CorrespondenceSet& input);
 
 }  // namespace mac_registration
