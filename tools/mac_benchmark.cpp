@@ -1,15 +1,24 @@
-// mac_benchmark: measures the MAC core (time per stage, peak memory, counters, accuracy).
+// mac_benchmark: measures the MAC core (time per stage, peak memory, counters) and its accuracy on
+// datasets with ground truth, next to a RANSAC baseline on the same correspondences.
 //   mac_benchmark synthetic [--sizes 250,500,...] [--ratios 0.02,0.05,...] [--noise M] [--repeats R]
 //                           [--mesh PLY] [--csv FILE] [--config FILE] [--set KEY=VALUE]...
-//   mac_benchmark correspondences FILE GT_FILE [--repeats R] [--csv FILE] [--config FILE] [--set
-//   KEY=VALUE]... mac_benchmark compare ESTIMATE_FILE GT_FILE
-// Each case runs in a child process so that its peak resident memory is its own.
+//   mac_benchmark correspondences FILE GT_FILE [--repeats R] [--csv FILE] [--config FILE] [--set ...]
+//   mac_benchmark compare ESTIMATE_FILE GT_FILE
+//   mac_benchmark pairs TABLE.tsv [dataset options]          (e.g. 3dmatch/pairs_available.tsv)
+//   mac_benchmark gtlog FRAGMENT_DIR GT_LOG [--subset-name NAME] [dataset options]   (3DMatch layout)
+//   mac_benchmark sets FOLDER|LIST [dataset options]          (correspondence sets with ground truth)
+// dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline ransac|none]
+//                  [--ransac-iterations N] [--subset NAME] [--limit N]
+// The synthetic and correspondences modes run each case in a child process so that its peak resident
+// memory is its own; the dataset modes print a paper-style recall table (see BENCHMARKS.md).
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -17,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "benchmark_runner.hpp"
 #include "cli_config.hpp"
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
@@ -34,7 +44,45 @@ struct Options {
   std::string csv;
   MacParams params;
   std::vector<std::string> positional;
+  // dataset modes
+  BenchmarkSettings dataset;  // its mac field is filled from `params` (what --config/--set change)
+  std::string subset_filter, subset_name;
+  std::size_t limit = 0;
 };
+
+// The benchmark: section of a preset and --set benchmark.* keys: the success criterion of the recall.
+void setBenchmarkParam(BenchmarkSettings& settings, const std::string& key, const std::string& value) {
+  double v = 0.0;
+  try {
+    v = std::stod(value);
+  } catch (const std::exception&) {
+    throw std::invalid_argument(key + ": '" + value + "' is not a number");
+  }
+  if (key == "benchmark.max_rotation_error_deg")
+    settings.criterion.max_rotation_deg = v;
+  else if (key == "benchmark.max_translation_error")
+    settings.criterion.max_translation = v;
+  else if (key == "benchmark.ransac_max_iterations")
+    settings.ransac_max_iterations = int(v);
+  else
+    throw std::invalid_argument("unknown parameter '" + key + "'");
+}
+
+void applySetting(Options& o, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (assignment.rfind("benchmark.", 0) == 0 && eq != std::string::npos)
+    setBenchmarkParam(o.dataset, assignment.substr(0, eq), assignment.substr(eq + 1));
+  else
+    applyAssignment(o.params, o.dataset.features, assignment);
+}
+
+void loadConfig(Options& o, const std::string& path) {
+  loadParamsFile(o.params, path);
+  loadFeatureParamsFile(o.dataset.features, path);
+  readPresetFile(path, [&](const std::string& key, const std::string& value) {
+    if (key.rfind("benchmark.", 0) == 0) setBenchmarkParam(o.dataset, key, value);
+  });
+}
 
 // What one case measured: medians over the repeats, accuracy of each repeat.
 struct CaseResult {
@@ -60,7 +108,7 @@ CaseResult measure(int repeats, Run run_once) {
   r.repeats = repeats;
   for (int k = 0; k < repeats; ++k) {
     Eigen::Isometry3d truth;
-    const RegistrationResult result = run_once(k, truth);
+    const MacResult result = run_once(k, truth);
     const StageTimes& t = result.times;
     const double values[] = {t.graph_ms,
                              t.second_order_ms,
@@ -186,13 +234,22 @@ Options parseOptions(int argc, char** argv) {
     else if (arg == "--csv")
       o.csv = value();
     else if (arg == "--config")
-      loadParamsFile(o.params, value());
-    else if (arg == "--set") {
-      const std::string kv = value();
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos) throw std::invalid_argument("--set expects KEY=VALUE");
-      setParam(o.params, kv.substr(0, eq), kv.substr(eq + 1));
-    } else if (!arg.empty() && arg[0] == '-')
+      loadConfig(o, value());
+    else if (arg == "--set")
+      applySetting(o, value());
+    else if (arg == "--baseline") {
+      const std::string b = value();
+      if (b != "ransac" && b != "none") throw std::invalid_argument("--baseline is ransac or none");
+      o.dataset.baseline = b == "ransac";
+    } else if (arg == "--ransac-iterations")
+      o.dataset.ransac_max_iterations = std::stoi(value());
+    else if (arg == "--subset")
+      o.subset_filter = value();
+    else if (arg == "--subset-name")
+      o.subset_name = value();
+    else if (arg == "--limit")
+      o.limit = std::stoul(value());
+    else if (!arg.empty() && arg[0] == '-')
       throw std::invalid_argument("unknown option " + arg);
     else
       o.positional.push_back(arg);
@@ -242,7 +299,7 @@ int runSynthetic(Options o, bool params_given) {
 
 int runCorrespondences(const Options& o) {
   if (o.positional.size() != 2) throw std::invalid_argument("correspondences needs FILE GT_FILE");
-  const Correspondences c = readCorrespondencesFile(o.positional[0]);
+  const CorrespondenceSet c = readCorrespondencesFile(o.positional[0]);
   const Eigen::Isometry3d gt = readTransformFile(o.positional[1]);
   const CaseResult r = inChild([&] {
     return measure(o.repeats, [&](int, Eigen::Isometry3d& truth) {
@@ -274,13 +331,126 @@ int runCompare(const Options& o) {
   return ok ? 0 : 1;
 }
 
+std::string describeMethod(const MethodOutcome& m) {
+  std::ostringstream text;
+  text << m.method << " " << (m.recalled ? "ok  " : "MISS");
+  if (!std::isnan(m.rotation_error_deg))
+    text << std::fixed << std::setprecision(1) << " RE " << m.rotation_error_deg << " TE "
+         << m.translation_error * 100.0 << "cm";
+  if (!m.registered) text << " (" << m.status << ")";
+  text << std::fixed << std::setprecision(0) << " " << m.times.total_ms << "ms";
+  return text.str();
+}
+
+// What a reader of the table needs to reproduce it: the front end, MAC's main knobs and the baseline.
+void printSettings(std::ostream& out, const Options& o, bool baseline) {
+  const FeatureParams& f = o.dataset.features;
+  const GraphParams& g = o.params.graph;
+  out << "front end: voxel " << f.voxel_size << " m, normal radius " << f.normal_radius_factor * f.voxel_size
+      << " m, FPFH radius " << f.feature_radius_factor * f.voxel_size << " m, max " << f.max_correspondences
+      << " correspondences, mutual " << (f.mutual_filter ? "on" : "off") << ", ratio test " << f.ratio_test
+      << "\n";
+  out << "MAC: " << (g.score == CompatibilityScore::kGaussian ? "gaussian" : "quadratic") << " score, sigma ";
+  if (f.gaussian_sigma_resolutions > 0)
+    out << f.gaussian_sigma_resolutions << " x resolution";
+  else
+    out << g.gaussian_sigma << " m";
+  out << ", t_cmp " << g.t_cmp << ", tau " << o.params.evaluation.inlier_threshold << " m\n";
+  out << "baseline: ";
+  if (baseline)
+    out << "RANSAC (PCL), at most " << o.dataset.ransac_max_iterations << " iterations\n";
+  else
+    out << (o.dataset.baseline ? "none (this build has no PCL)" : "none") << "\n";
+}
+
+void printProgress(std::ostream& out, std::size_t k, std::size_t count, const PairOutcome& r) {
+  out << "[" << std::setw(3) << k + 1 << "/" << count << "] " << r.name << " (" << r.subset << ")";
+  if (!r.error.empty()) {
+    out << " ERROR: " << r.error << std::endl;
+    return;
+  }
+  out << " " << r.correspondences << " corr, " << std::fixed << std::setprecision(1) << 100.0 * r.inlier_ratio
+      << "% inliers, front end " << std::setprecision(0) << r.front_end.total() << "ms";
+  for (const MethodOutcome& m : r.methods) out << " | " << describeMethod(m);
+  out << std::endl;
+}
+
+int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& source) {
+  if (!o.subset_filter.empty()) {
+    pairs.erase(std::remove_if(pairs.begin(), pairs.end(),
+                               [&](const BenchmarkPair& p) { return p.subset != o.subset_filter; }),
+                pairs.end());
+  }
+  if (o.limit > 0 && pairs.size() > o.limit) pairs.resize(o.limit);
+  if (pairs.empty()) throw std::invalid_argument("no pairs to evaluate in " + source);
+  std::ofstream csv;
+  if (!o.csv.empty()) {
+    csv.open(o.csv);  // now rather than after a long run
+    if (!csv) throw std::runtime_error("cannot open '" + o.csv + "' for writing");
+  }
+  const bool baseline = o.dataset.baseline && benchmarkHasFeatures();
+  std::cout << "dataset: " << source << ", " << pairs.size() << " pairs\n";
+  printSettings(std::cout, o, baseline);
+  o.dataset.mac = o.params;
+  o.dataset.baseline = baseline;
+
+  std::vector<PairOutcome> outcomes;
+  std::size_t errors = 0;
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    outcomes.push_back(runBenchmarkPair(pairs[k], o.dataset));
+    errors += !outcomes.back().error.empty();
+    printProgress(std::cerr, k, pairs.size(), outcomes.back());
+  }
+  std::cout << "\n";
+  printSummary(std::cout, summarize(outcomes), o.dataset.criterion);
+  if (errors > 0)
+    std::cout << errors << " pairs could not be run (counted as misses; see the progress lines)\n";
+  if (csv.is_open()) {
+    writeOutcomesCsv(csv, outcomes);
+    if (!csv) throw std::runtime_error("failed writing '" + o.csv + "'");
+    std::cout << "per-pair results: " << o.csv << "\n";
+  }
+  return errors > 0 ? 1 : 0;
+}
+
+int runPairs(const Options& o) {
+  if (o.positional.size() != 1) throw std::invalid_argument("pairs needs TABLE.tsv");
+  return runDataset(o, readPairsTable(o.positional[0]), o.positional[0]);
+}
+
+int runGtLog(const Options& o) {
+  if (o.positional.size() != 2) throw std::invalid_argument("gtlog needs FRAGMENT_DIR GT_LOG");
+  std::vector<std::string> missing;
+  // The benchmark's name is the gt.log's grandparent folder in the 3DMatch layout
+  // (benchmarks/3DLoMatch/<scene>/gt.log); --subset-name overrides it.
+  const std::string subset = !o.subset_name.empty() ? o.subset_name
+                                                    : std::filesystem::path(o.positional[1])
+                                                          .lexically_normal()
+                                                          .parent_path()
+                                                          .parent_path()
+                                                          .filename()
+                                                          .string();
+  std::vector<BenchmarkPair> pairs = pairsFromGtLog(o.positional[0], o.positional[1], subset, missing);
+  if (!missing.empty()) {
+    std::cout << "skipped " << missing.size() << " gt.log pairs whose fragments are not in "
+              << o.positional[0] << "\n";
+  }
+  return runDataset(o, pairs, o.positional[1]);
+}
+
+int runSets(const Options& o) {
+  if (o.positional.size() != 1) throw std::invalid_argument("sets needs FOLDER or LIST");
+  return runDataset(o, readCorrespondenceSets(o.positional[0]), o.positional[0]);
+}
+
 }  // namespace
 }  // namespace mac_registration
 
 int main(int argc, char** argv) {
   using namespace mac_registration;
   const std::string usage =
-      "usage: mac_benchmark synthetic|correspondences|compare ... (see the comment at the top of "
+      "usage: mac_benchmark synthetic|correspondences|compare|pairs|gtlog|sets ... (see the comment at the "
+      "top of "
       "tools/mac_benchmark.cpp or BENCHMARKS.md)\n";
   if (argc < 2) {
     std::cerr << usage;
@@ -295,6 +465,9 @@ int main(int argc, char** argv) {
     if (mode == "synthetic") return runSynthetic(options, params_given);
     if (mode == "correspondences") return runCorrespondences(options);
     if (mode == "compare") return runCompare(options);
+    if (mode == "pairs") return runPairs(options);
+    if (mode == "gtlog") return runGtLog(options);
+    if (mode == "sets") return runSets(options);
     std::cerr << "mac_benchmark: unknown mode '" << mode << "'\n" << usage;
   } catch (const std::exception& e) {
     std::cerr << "mac_benchmark: " << e.what() << "\n";

@@ -1,5 +1,8 @@
-// mac_register: registers one correspondence set and prints T_target_source.
-#include <cstring>
+// mac_register: registers two clouds (PCL front end, then MAC) or one correspondence set, and prints
+// T_target_source.
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -8,19 +11,29 @@
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "result_report.hpp"
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+#include "mac_registration/features/cloud_registration.hpp"
+#endif
 
 namespace {
 
 constexpr const char* kUsage =
-    "usage: mac_register --correspondences FILE [--config FILE] [--set KEY=VALUE]... [--out FILE]\n"
-    "  FILE: one correspondence a line, 'xs ys zs xt yt zt' [m]\n"
+    "usage: mac_register SOURCE TARGET [--config FILE] [--set KEY=VALUE]... [--out FILE]\n"
+    "                    [--save-correspondences FILE]\n"
+    "       mac_register --correspondences FILE [--config FILE] [--set KEY=VALUE]... [--out FILE]\n"
+    "  SOURCE, TARGET: clouds (.pcd, .ply, or KITTI .bin: float32 x y z intensity) [m]; the transform maps\n"
+    "    SOURCE into TARGET's frame\n"
+    "  --correspondences: one correspondence a line, 'xs ys zs xt yt zt' [m], instead of clouds\n"
     "  --config: a YAML preset (see config/); --set overrides one parameter, e.g. --set graph.t_cmp=0.995\n"
+    "    or --set features.voxel_size=0.03\n"
     "  --out: also write the 4x4 T_target_source there (4 lines of 4 numbers)\n"
-    "exit status: 0 registered, 1 registration failed (reason printed), 2 bad arguments or unreadable "
-    "input\n";
+    "  --save-correspondences: write the front end's matches in the --correspondences format\n"
+    "exit status: 0 registered, 1 registration failed (reason printed), 2 bad arguments, unreadable or\n"
+    "unusable input\n";
 
 struct Options {
-  std::string correspondences, config, out;
+  std::vector<std::string> clouds;
+  std::string correspondences, config, out, save_correspondences;
   std::vector<std::string> overrides;
 };
 
@@ -38,18 +51,65 @@ Options parseArguments(int argc, char** argv) {
       options.config = value();
     else if (arg == "--out")
       options.out = value();
+    else if (arg == "--save-correspondences")
+      options.save_correspondences = value();
     else if (arg == "--set")
       options.overrides.push_back(value());
     else if (arg == "-h" || arg == "--help") {
       std::cout << kUsage;
       std::exit(0);
-    } else {
-      throw std::invalid_argument("unexpected argument '" + arg + "' (clouds-in mode is not available yet)");
-    }
+    } else if (!arg.empty() && arg[0] == '-')
+      throw std::invalid_argument("unknown option '" + arg + "'");
+    else
+      options.clouds.push_back(arg);
   }
-  if (options.correspondences.empty()) throw std::invalid_argument("--correspondences FILE is required");
+  if (options.correspondences.empty() == options.clouds.empty()) {
+    throw std::invalid_argument(options.clouds.empty()
+                                    ? "give SOURCE TARGET or --correspondences FILE"
+                                    : "give either SOURCE TARGET or --correspondences, not both");
+  }
+  if (!options.clouds.empty() && options.clouds.size() != 2)
+    throw std::invalid_argument("expected two clouds, SOURCE and TARGET, got " +
+                                std::to_string(options.clouds.size()));
+#ifndef MAC_REGISTRATION_WITH_FEATURES
+  if (!options.clouds.empty())
+    throw std::invalid_argument(
+        "this build has no PCL front end (MAC_REGISTRATION_CORE_ONLY): use --correspondences");
+#endif
+  if (!options.save_correspondences.empty() && options.clouds.empty())
+    throw std::invalid_argument("--save-correspondences needs SOURCE TARGET");
   return options;
 }
+
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+void printFrontEnd(std::ostream& out, const mac_registration::FrontEndStats& s, std::size_t correspondences) {
+  const auto cloud = [&](const char* role, std::size_t points, std::size_t dropped, std::size_t keypoints,
+                         std::size_t no_feature) {
+    out << role << ": " << points << " points (" << dropped << " non-finite dropped), " << keypoints
+        << " keypoints (" << no_feature << " without a descriptor)\n";
+  };
+  cloud("source", s.source_points, s.source_dropped, s.source_keypoints, s.source_no_feature);
+  cloud("target", s.target_points, s.target_dropped, s.target_keypoints, s.target_no_feature);
+  out << std::fixed << std::setprecision(4) << "front end: resolution " << s.resolution << " m, "
+      << correspondences << " correspondences (" << s.rejected_mutual << " rejected by the mutual check, "
+      << s.rejected_ratio << " by the ratio test, " << s.truncated << " beyond max_correspondences)\n"
+      << std::setprecision(2) << "front-end time [ms]: resolution " << s.resolution_ms << ", downsample "
+      << s.downsample_ms << ", normals " << s.normals_ms << ", fpfh " << s.features_ms << ", matching "
+      << s.matching_ms << ", total " << s.totalMs() << "\n";
+  out.unsetf(std::ios::fixed);
+}
+
+void writeCorrespondences(const std::string& path, const mac_registration::CorrespondenceSet& c) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot open '" + path + "' for writing");
+  out << std::setprecision(9);
+  for (Eigen::Index k = 0; k < c.source_points.cols(); ++k) {
+    out << c.source_points(0, k) << " " << c.source_points(1, k) << " " << c.source_points(2, k) << " "
+        << c.target_points(0, k) << " " << c.target_points(1, k) << " " << c.target_points(2, k) << "\n";
+  }
+  if (!out) throw std::runtime_error("failed writing '" + path + "'");
+}
+#endif
 
 }  // namespace
 
@@ -57,24 +117,45 @@ int main(int argc, char** argv) {
   using namespace mac_registration;
   Options options;
   MacParams params;
-  Correspondences correspondences;
+  FeatureParams feature_params;
+  CorrespondenceSet correspondences;
   try {
     options = parseArguments(argc, argv);
-    if (!options.config.empty()) loadParamsFile(params, options.config);
-    for (const auto& assignment : options.overrides) {
-      const auto eq = assignment.find('=');
-      if (eq == std::string::npos)
-        throw std::invalid_argument("--set expects KEY=VALUE, got '" + assignment + "'");
-      setParam(params, assignment.substr(0, eq), assignment.substr(eq + 1));
+    if (!options.config.empty()) {
+      loadParamsFile(params, options.config);
+      loadFeatureParamsFile(feature_params, options.config);
     }
-    correspondences = readCorrespondencesFile(options.correspondences);
+    for (const auto& assignment : options.overrides) applyAssignment(params, feature_params, assignment);
+    if (!options.correspondences.empty()) correspondences = readCorrespondencesFile(options.correspondences);
   } catch (const std::exception& e) {
     std::cerr << "mac_register: " << e.what() << "\n" << kUsage;
     return 2;
   }
 
-  const RegistrationResult result = registerCorrespondences(correspondences, params);
-  if (result.status == RegistrationStatus::kInvalidParameters) {
+  MacResult result;
+  if (!options.correspondences.empty()) {
+    result = registerCorrespondences(correspondences, params);
+  } else {
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+    CloudRegistrationResult cloud_result;
+    try {
+      const PointCloud::Ptr source = loadCloud(options.clouds[0]);
+      const PointCloud::Ptr target = loadCloud(options.clouds[1]);
+      cloud_result = registerClouds(*source, *target, feature_params, params);
+      if (!options.save_correspondences.empty())
+        writeCorrespondences(options.save_correspondences, cloud_result.features.correspondences);
+    } catch (const std::exception& e) {
+      std::cerr << "mac_register: " << e.what() << "\n";
+      return 2;
+    }
+    result = cloud_result.registration;
+    // A front-end failure leaves nothing to report but the reason (below).
+    if (cloud_result.features.source_keypoints)
+      printFrontEnd(std::cout, cloud_result.features.stats, cloud_result.features.correspondences.size());
+#endif
+  }
+  if (result.status == RegistrationStatus::kInvalidParameters ||
+      result.status == RegistrationStatus::kInvalidInput) {
     std::cerr << "mac_register: " << result.message << "\n";
     return 2;
   }

@@ -4,7 +4,7 @@
 
 namespace mac_registration {
 
-void printResultSummary(std::ostream& out, const RegistrationResult& r) {
+void printResultSummary(std::ostream& out, const MacResult& r) {
   const auto& c = r.counters;
   const auto& t = r.times;
   out << "status: " << toString(r.status) << (r.success ? "" : " (FAILED)") << ": " << r.message << "\n";

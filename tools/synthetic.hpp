@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "mac_registration/core/correspondences.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
 
 namespace mac_registration {
 
@@ -27,7 +27,7 @@ struct SyntheticSpec {
 };
 
 struct SyntheticProblem {
-  Correspondences correspondences;
+  CorrespondenceSet correspondences;
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
   std::vector<char> is_inlier;
 };

@@ -1,0 +1,65 @@
+#pragma once
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "mac_registration/core/correspondence_set.hpp"
+#include "mac_registration/core/mac_result.hpp"
+#include "mac_registration/core/parameters.hpp"
+#include "mac_registration/features/feature_params.hpp"
+
+namespace mac_registration {
+
+using PointCloud = pcl::PointCloud<pcl::PointXYZ>;
+
+struct FrontEndStats {
+  std::size_t source_points = 0, target_points = 0;        // given
+  std::size_t source_dropped = 0, target_dropped = 0;      // NaN/Inf points removed
+  std::size_t source_keypoints = 0, target_keypoints = 0;  // after the voxel grid
+  // Keypoints without a usable descriptor (too few neighbours for a normal or an FPFH), not matched.
+  std::size_t source_no_feature = 0, target_no_feature = 0;
+  // Matches removed by the mutual check and by the ratio test, and beyond max_correspondences.
+  std::size_t rejected_mutual = 0, rejected_ratio = 0, truncated = 0;
+  double resolution = 0.0;  // [m] mean nearest-neighbour distance of the given clouds, averaged over both
+  double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0, matching_ms = 0.0;
+  double totalMs() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
+};
+
+struct FeatureCorrespondences {
+  CorrespondenceSet correspondences;  // points and normals of the matched keypoints
+  FrontEndStats stats;
+  // The keypoints (voxel centroids, finite) and, per correspondence, the index of its keypoint in each:
+  // what an evaluation needs to relate the matches to the clouds (e.g. overlap, feature-match recall).
+  PointCloud::Ptr source_keypoints, target_keypoints;
+  std::vector<int> source_indices, target_indices;
+};
+
+// Clouds in (any frame each, may hold NaNs, may be organized), correspondences out. Throws
+// std::invalid_argument for invalid params or a cloud with fewer than 3 finite points.
+FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
+                                              const FeatureParams& params);
+
+struct CloudRegistrationResult {
+  MacResult registration;  // its inlier indices refer to correspondences below
+  FeatureCorrespondences features;
+};
+
+// graph.gaussian_sigma in metres from FeatureParams::gaussian_sigma_resolutions and a resolution [m];
+// the parameters unchanged when that factor is 0 or the resolution is not positive.
+MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& feature_params,
+                              double resolution);
+
+// Front end then the MAC core. Never throws: invalid feature parameters come back as a failed
+// registration with status kInvalidParameters, unusable clouds with kInvalidInput, each with a message.
+CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
+                                       const FeatureParams& feature_params, const MacParams& mac_params);
+
+// Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). Throws std::runtime_error naming
+// the file when it is missing, unreadable or has no points.
+PointCloud::Ptr loadCloud(const std::string& path);
+
+}  // namespace mac_registration

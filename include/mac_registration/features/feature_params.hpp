@@ -1,0 +1,32 @@
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace mac_registration {
+
+// The PCL front end: voxel downsampling, normals, FPFH, matching in feature space. Distances derive from
+// one voxel size, so a preset changes one number for a new sensor. This header holds no PCL type, so
+// that tools built without PCL can still read and write these parameters.
+struct FeatureParams {
+  double voxel_size = 0.05;                // [m], > 0: voxel grid leaf, the keypoint spacing
+  double normal_radius_factor = 2.0;       // normal estimation radius = factor x voxel_size, > 0
+  double feature_radius_factor = 5.0;      // FPFH radius = factor x voxel_size, > normal_radius_factor
+  std::size_t max_correspondences = 5000;  // [count], >= 3: keep the best-matching ones (feature distance)
+  bool mutual_filter = false;              // keep only mutual nearest neighbours in feature space
+  double ratio_test = 0.0;  // Lowe's ratio in (0, 1), 0 = off: nearest / second nearest distance
+  int num_threads = 0;      // 0 = OpenMP default
+  // d_cmp of the Gaussian compatibility score in resolution units (mean nearest-neighbour distance of
+  // the given clouds), 0 = off: registerClouds then uses graph.gaussian_sigma [m] as given. The paper
+  // uses 10. Only clouds have a resolution, so correspondence-only callers always give metres.
+  double gaussian_sigma_resolutions = 0.0;
+  // Most query points the resolution is estimated from [count], >= 100: a deterministic even subsample
+  // of each cloud, each searched against the whole cloud (the mean converges long before 260k queries).
+  std::size_t resolution_samples = 20000;
+};
+
+// Every problem with the parameters as a sentence naming parameter, value and allowed range; empty if usable.
+std::vector<std::string> validateFeatureParams(const FeatureParams& params);
+
+}  // namespace mac_registration

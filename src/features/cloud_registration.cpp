@@ -1,0 +1,183 @@
+#include "mac_registration/features/cloud_registration.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+#include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/features/front_end_stages.hpp"
+
+namespace mac_registration {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// One cloud's share of the front end: its keypoints that carry a descriptor, and the descriptors.
+struct DescribedKeypoints {
+  PointCloud::Ptr points;
+  NormalCloud::Ptr normals;
+  FpfhCloud::Ptr descriptors;
+  std::size_t voxels = 0;      // keypoints after the voxel grid
+  std::size_t no_feature = 0;  // of them, without a normal or a usable descriptor
+};
+
+// Keeps the entries of `cloud` at `indices`; the clouds stay unorganized.
+template <typename Point>
+typename pcl::PointCloud<Point>::Ptr subset(const pcl::PointCloud<Point>& cloud,
+                                            const std::vector<int>& indices) {
+  auto kept = pcl::make_shared<pcl::PointCloud<Point>>();
+  kept->reserve(indices.size());
+  for (const int i : indices) kept->push_back(cloud[i]);
+  return kept;
+}
+
+DescribedKeypoints describe(const PointCloud::ConstPtr& finite, const FeatureParams& params,
+                            FrontEndStats& stats) {
+  DescribedKeypoints out;
+  auto start = Clock::now();
+  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size);
+  out.voxels = voxels->size();
+  stats.downsample_ms += millisecondsSince(start);
+
+  start = Clock::now();
+  const NormalCloud::Ptr normals =
+      estimateNormals(voxels, params.normal_radius_factor * params.voxel_size, params.num_threads);
+  std::vector<int> with_normal;
+  for (int i = 0; i < static_cast<int>(normals->size()); ++i) {
+    const auto& n = (*normals)[i];
+    if (std::isfinite(n.normal_x) && std::isfinite(n.normal_y) && std::isfinite(n.normal_z))
+      with_normal.push_back(i);
+  }
+  // Points without a normal are left out of the FPFH neighbourhoods too: their pair features are undefined.
+  voxels = subset(*voxels, with_normal);
+  const NormalCloud::Ptr kept_normals = subset(*normals, with_normal);
+  stats.normals_ms += millisecondsSince(start);
+
+  start = Clock::now();
+  const FpfhCloud::Ptr descriptors =
+      computeFpfh(voxels, kept_normals, params.feature_radius_factor * params.voxel_size, params.num_threads);
+  std::vector<int> usable;
+  for (int i = 0; i < static_cast<int>(descriptors->size()); ++i) {
+    if (isUsableDescriptor((*descriptors)[i])) usable.push_back(i);
+  }
+  out.points = subset(*voxels, usable);
+  out.normals = subset(*kept_normals, usable);
+  out.descriptors = subset(*descriptors, usable);
+  out.no_feature = out.voxels - usable.size();
+  stats.features_ms += millisecondsSince(start);
+  return out;
+}
+
+PointCloud::Ptr finiteOrThrow(const PointCloud& cloud, const char* role, std::size_t& dropped) {
+  PointCloud::Ptr finite = finitePoints(cloud, dropped);
+  if (finite->size() < 3) {
+    throw std::invalid_argument(std::string(role) + " cloud has " + std::to_string(finite->size()) +
+                                " finite points (of " + std::to_string(cloud.size()) +
+                                "); at least 3 are needed");
+  }
+  return finite;
+}
+
+}  // namespace
+
+FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
+                                              const FeatureParams& params) {
+  const auto problems = validateFeatureParams(params);
+  if (!problems.empty()) {
+    std::string message = "invalid feature parameters:";
+    for (const auto& p : problems) message += " " + p;
+    throw std::invalid_argument(message);
+  }
+  FeatureCorrespondences out;
+  FrontEndStats& stats = out.stats;
+  stats.source_points = source.size();
+  stats.target_points = target.size();
+  const PointCloud::Ptr source_finite = finiteOrThrow(source, "source", stats.source_dropped);
+  const PointCloud::Ptr target_finite = finiteOrThrow(target, "target", stats.target_dropped);
+
+  auto start = Clock::now();
+  stats.resolution = 0.5 * (meanNearestNeighbourDistance(source_finite, params.resolution_samples) +
+                            meanNearestNeighbourDistance(target_finite, params.resolution_samples));
+  stats.resolution_ms = millisecondsSince(start);
+
+  const DescribedKeypoints s = describe(source_finite, params, stats);
+  const DescribedKeypoints t = describe(target_finite, params, stats);
+  stats.source_keypoints = s.voxels;
+  stats.target_keypoints = t.voxels;
+  stats.source_no_feature = s.no_feature;
+  stats.target_no_feature = t.no_feature;
+
+  start = Clock::now();
+  MatchingStats matching;
+  const std::vector<FeatureMatch> matches = matchFeatures(s.descriptors, t.descriptors, params, matching);
+  stats.rejected_mutual = matching.rejected_mutual;
+  stats.rejected_ratio = matching.rejected_ratio;
+  stats.truncated = matching.truncated;
+
+  CorrespondenceSet& c = out.correspondences;
+  const auto n = static_cast<Eigen::Index>(matches.size());
+  c.source_points.resize(3, n);
+  c.target_points.resize(3, n);
+  c.source_normals.resize(3, n);
+  c.target_normals.resize(3, n);
+  out.source_indices.resize(matches.size());
+  out.target_indices.resize(matches.size());
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const FeatureMatch& m = matches[k];
+    c.source_points.col(k) = (*s.points)[m.source].getVector3fMap().cast<double>();
+    c.target_points.col(k) = (*t.points)[m.target].getVector3fMap().cast<double>();
+    c.source_normals.col(k) = (*s.normals)[m.source].getNormalVector3fMap().cast<double>();
+    c.target_normals.col(k) = (*t.normals)[m.target].getNormalVector3fMap().cast<double>();
+    out.source_indices[k] = m.source;
+    out.target_indices[k] = m.target;
+  }
+  out.source_keypoints = s.points;
+  out.target_keypoints = t.points;
+  stats.matching_ms = millisecondsSince(start);
+  return out;
+}
+
+MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& feature_params,
+                              double resolution) {
+  MacParams params = mac_params;
+  if (feature_params.gaussian_sigma_resolutions > 0.0 && resolution > 0.0)
+    params.graph.gaussian_sigma = feature_params.gaussian_sigma_resolutions * resolution;
+  return params;
+}
+
+CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
+                                       const FeatureParams& feature_params, const MacParams& mac_params) {
+  CloudRegistrationResult result;
+  MacResult& registration = result.registration;
+  const auto fail = [&](RegistrationStatus status, const std::string& message) {
+    registration.success = false;
+    registration.status = status;
+    registration.message = message;
+    return result;
+  };
+  const auto problems = validateFeatureParams(feature_params);
+  if (!problems.empty()) {
+    std::string message = "invalid feature parameters:";
+    for (const auto& p : problems) message += " " + p;
+    return fail(RegistrationStatus::kInvalidParameters, message);
+  }
+  try {
+    result.features = computeCorrespondences(source, target, feature_params);
+  } catch (const std::invalid_argument& e) {
+    return fail(RegistrationStatus::kInvalidInput, e.what());
+  } catch (const std::exception& e) {
+    return fail(RegistrationStatus::kInternalError, std::string("front end failed: ") + e.what());
+  }
+  registration = registerCorrespondences(
+      result.features.correspondences,
+      withResolutionUnits(mac_params, feature_params, result.features.stats.resolution));
+  return result;
+}
+
+}  // namespace mac_registration

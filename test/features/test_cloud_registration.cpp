@@ -1,0 +1,171 @@
+// The front end and registerClouds on a real 3DMatch pair (redkitchen fragments 4 -> 0, 37 % overlap,
+// shipped downsampled to 3 cm) with its ground truth, and on the ways input can be bad.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_registration.hpp"
+
+namespace mac_registration {
+namespace {
+
+std::string dataPath(const std::string& name) { return std::string(MAC_TEST_DATA_DIR) + "/" + name; }
+
+struct RealPair {
+  PointCloud::Ptr source = loadCloud(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd"));
+  PointCloud::Ptr target = loadCloud(dataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
+  Eigen::Isometry3d truth = readTransformFile(dataPath("redkitchen_4_0/T_target_source_gt.txt"));
+};
+
+const RealPair& realPair() {
+  static const RealPair pair;
+  return pair;
+}
+
+double inlierRatio(const CorrespondenceSet& c, const Eigen::Isometry3d& T, double threshold) {
+  std::size_t inliers = 0;
+  for (Eigen::Index k = 0; k < c.source_points.cols(); ++k)
+    inliers += (T * c.source_points.col(k) - c.target_points.col(k)).norm() < threshold;
+  return double(inliers) / double(c.size());
+}
+
+TEST(RealPair, FrontEndFindsCorrespondencesThatAgreeWithTheGroundTruth) {
+  const RealPair& pair = realPair();
+  const FeatureParams params;  // the indoor defaults: 5 cm voxels
+  const FeatureCorrespondences f = computeCorrespondences(*pair.source, *pair.target, params);
+  const FrontEndStats& s = f.stats;
+  EXPECT_EQ(s.source_points, pair.source->size());
+  EXPECT_EQ(s.source_dropped, 0u);
+  // 3 cm input on a 5 cm grid: fewer keypoints than points, and most keypoints described.
+  EXPECT_LT(s.source_keypoints, s.source_points / 2);
+  EXPECT_GT(s.source_keypoints, 1000u);
+  EXPECT_LT(s.source_no_feature, s.source_keypoints / 100);
+  // Every described source keypoint is matched (no mutual check, no ratio test) up to the cap.
+  EXPECT_EQ(f.correspondences.size() + s.truncated, s.source_keypoints - s.source_no_feature);
+  EXPECT_LE(f.correspondences.size(), params.max_correspondences);
+  ASSERT_EQ(f.source_indices.size(), f.correspondences.size());
+  ASSERT_TRUE(f.correspondences.hasNormals());
+  // The correspondences are the matched keypoints.
+  const auto& k = (*f.source_keypoints)[f.source_indices[7]];
+  EXPECT_FLOAT_EQ(float(f.correspondences.source_points(0, 7)), k.x);
+  // Resolution: the 3 cm voxel centroids lie ~1.9 cm apart (measured 0.0185 m).
+  EXPECT_GT(s.resolution, 0.012);
+  EXPECT_LT(s.resolution, 0.03);
+  // Measured 10.3 % at tau = 0.1 m. FPFH on 37 % overlap is mostly outliers; MAC needs a few percent.
+  // 5 % fails if normals, radii or matching break, while a different FLANN version would not move it.
+  EXPECT_GT(inlierRatio(f.correspondences, pair.truth, 0.1), 0.05);
+}
+
+TEST(RealPair, RegisterCloudsRecoversTheGroundTruth) {
+  const RealPair& pair = realPair();
+  const CloudRegistrationResult r = registerClouds(*pair.source, *pair.target, FeatureParams{}, MacParams{});
+  ASSERT_TRUE(r.registration.success) << r.registration.message;
+  // Measured 1.8 deg / 2.2 cm; the 3DMatch criterion is 15 deg / 30 cm, and wrong alignments of this
+  // pair are tens of degrees off. 5 deg and 10 cm (two voxels) leave room for another platform's float
+  // rounding in FPFH, not for a wrong alignment.
+  EXPECT_LT(rotationErrorDeg(r.registration.T_target_source, pair.truth), 5.0);
+  EXPECT_LT(translationError(r.registration.T_target_source, pair.truth), 0.10);
+  // The result's inliers index the returned correspondences.
+  ASSERT_FALSE(r.registration.inlier_indices.empty());
+  EXPECT_LT(std::size_t(r.registration.inlier_indices.back()), r.features.correspondences.size());
+}
+
+// NaN points and an organized layout (a depth image's invalid pixels) change nothing but the counters:
+// the voxel grid does not depend on where the finite points were stored.
+TEST(RealPair, NaNsAndOrganizedCloudsGiveTheSameCorrespondences) {
+  const RealPair& pair = realPair();
+  PointCloud organized;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::size_t nans = 0;
+  for (std::size_t i = 0; i < pair.source->size(); ++i) {
+    organized.push_back((*pair.source)[i]);
+    if (i % 5 == 0) {
+      organized.push_back(pcl::PointXYZ(nan, nan, nan));
+      ++nans;
+    }
+  }
+  while (organized.size() % 100 != 0) {
+    organized.push_back(pcl::PointXYZ(nan, 0.0f, 0.0f));
+    ++nans;
+  }
+  organized.width = 100;
+  organized.height = static_cast<std::uint32_t>(organized.size() / 100);
+  organized.is_dense = false;
+
+  const FeatureParams params;
+  const FeatureCorrespondences clean = computeCorrespondences(*pair.source, *pair.target, params);
+  const FeatureCorrespondences dirty = computeCorrespondences(organized, *pair.target, params);
+  EXPECT_EQ(dirty.stats.source_points, organized.size());
+  EXPECT_EQ(dirty.stats.source_dropped, nans);
+  EXPECT_EQ(dirty.stats.source_keypoints, clean.stats.source_keypoints);
+  ASSERT_EQ(dirty.correspondences.size(), clean.correspondences.size());
+  EXPECT_TRUE(dirty.correspondences.source_points == clean.correspondences.source_points);
+  EXPECT_TRUE(dirty.correspondences.target_points == clean.correspondences.target_points);
+}
+
+TEST(BadInput, InvalidFeatureParametersAreRefusedWithTheirName) {
+  FeatureParams params;
+  params.voxel_size = -0.05;
+  params.feature_radius_factor = 1.0;  // below normal_radius_factor 2
+  const auto problems = validateFeatureParams(params);
+  ASSERT_EQ(problems.size(), 2u);
+  EXPECT_NE(problems[0].find("voxel_size"), std::string::npos);
+  EXPECT_NE(problems[1].find("feature_radius_factor"), std::string::npos);
+
+  const PointCloud::Ptr cloud = realPair().source;
+  EXPECT_THROW(computeCorrespondences(*cloud, *cloud, params), std::invalid_argument);
+  const CloudRegistrationResult r = registerClouds(*cloud, *cloud, params, MacParams{});
+  EXPECT_FALSE(r.registration.success);
+  EXPECT_EQ(r.registration.status, RegistrationStatus::kInvalidParameters);
+  EXPECT_NE(r.registration.message.find("voxel_size"), std::string::npos);
+
+  EXPECT_TRUE(validateFeatureParams(FeatureParams{}).empty());
+  params = FeatureParams{};
+  params.ratio_test = 1.0;
+  params.max_correspondences = 2;
+  EXPECT_EQ(validateFeatureParams(params).size(), 2u);
+}
+
+TEST(BadInput, CloudsWithoutThreeFinitePointsFailAsInvalidInput) {
+  PointCloud all_nan;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 0; i < 10; ++i) all_nan.push_back(pcl::PointXYZ(nan, nan, nan));
+  const CloudRegistrationResult r = registerClouds(all_nan, *realPair().target, FeatureParams{}, MacParams{});
+  EXPECT_FALSE(r.registration.success);
+  EXPECT_EQ(r.registration.status, RegistrationStatus::kInvalidInput);
+  EXPECT_NE(r.registration.message.find("source cloud has 0 finite points"), std::string::npos)
+      << r.registration.message;
+  EXPECT_THROW(computeCorrespondences(*realPair().source, PointCloud{}, FeatureParams{}),
+               std::invalid_argument);
+}
+
+// A plane has near-identical FPFH everywhere: whatever the matches, a pose that tilts the plane out of
+// itself would be wrong; a failure must say why.
+TEST(BadInput, AFeaturelessPlaneGivesAnInPlanePoseOrAFailure) {
+  PointCloud plane;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j) plane.push_back(pcl::PointXYZ(i * 0.02f, j * 0.02f, 1.0f));
+  const CloudRegistrationResult r = registerClouds(plane, plane, FeatureParams{}, MacParams{});
+  if (r.registration.success) {
+    // Sliding along the plane is allowed; leaving it is not.
+    const Eigen::Vector3d normal = r.registration.T_target_source.linear() * Eigen::Vector3d::UnitZ();
+    EXPECT_GT(std::abs(normal.z()), 0.99);
+  } else {
+    EXPECT_FALSE(r.registration.message.empty());
+  }
+}
+
+TEST(ResolutionUnits, ScaleTheGaussianSigmaOnlyWhenAsked) {
+  MacParams mac;
+  mac.graph.gaussian_sigma = 0.05;
+  FeatureParams features;
+  EXPECT_EQ(withResolutionUnits(mac, features, 0.01).graph.gaussian_sigma, 0.05);
+  features.gaussian_sigma_resolutions = 10.0;
+  EXPECT_DOUBLE_EQ(withResolutionUnits(mac, features, 0.01).graph.gaussian_sigma, 0.1);
+  EXPECT_EQ(withResolutionUnits(mac, features, 0.0).graph.gaussian_sigma, 0.05);  // no resolution known
+}
+
+}  // namespace
+}  // namespace mac_registration

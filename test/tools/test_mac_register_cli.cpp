@@ -1,0 +1,129 @@
+// mac_register as a user runs it: exit status 0 / 1 / 2 and the reason on stderr.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <string>
+
+#include "mac_registration/core/text_io.hpp"
+#include "temp_dir.hpp"
+
+namespace mac_registration {
+namespace {
+
+using test::TempDir;
+
+struct CliRun {
+  int status = -1;
+  std::string output;  // stdout and stderr
+};
+
+CliRun run(const std::string& arguments) {
+  CliRun r;
+  FILE* pipe = ::popen((std::string(MAC_REGISTER_BIN) + " " + arguments + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return r;
+  std::array<char, 4096> buffer;
+  for (std::size_t n; (n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0;)
+    r.output.append(buffer.data(), n);
+  const int raw = ::pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+std::string dataPath(const std::string& name) { return std::string(MAC_TEST_DATA_DIR) + "/" + name; }
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(MacRegisterCli, BadArgumentsExitTwoWithUsage) {
+  CliRun r = run("");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "usage:")) << r.output;
+  r = run("--correspondences " + dataPath("redkitchen_24_59/correspondences.txt") +
+          " --set graph.t_cmpp=0.9");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "graph.t_cmpp")) << r.output;
+  r = run("--frobnicate");
+  EXPECT_EQ(r.status, 2);
+}
+
+TEST(MacRegisterCli, MissingAndCorruptCorrespondenceFilesExitTwo) {
+  TempDir dir;
+  CliRun r = run("--correspondences " + dir.file("nothing.txt"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, dir.file("nothing.txt"))) << r.output;
+  r = run("--correspondences " + dir.write("bad.txt", "1 2 3 4 5 six\n"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "bad.txt:1")) << r.output;
+}
+
+TEST(MacRegisterCli, AFailedRegistrationExitsOneWithTheReason) {
+  TempDir dir;
+  CliRun r = run("--correspondences " + dir.write("two.txt", "0 0 0 1 1 1\n1 0 0 2 1 1\n"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_TRUE(contains(r.output, "registration failed")) << r.output;
+  EXPECT_TRUE(contains(r.output, "at least 3")) << r.output;
+}
+
+TEST(MacRegisterCli, RealCorrespondencesRegisterAndWriteTheTransform) {
+  TempDir dir;
+  const CliRun r = run("--correspondences " + dataPath("redkitchen_24_59/correspondences.txt") +
+                       " --config " + MAC_CONFIG_DIR + "/indoor_rgbd.yaml --out " + dir.file("T.txt"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "T_target_source:"));
+  const Eigen::Isometry3d truth = readTransformFile(dataPath("redkitchen_24_59/T_target_source_gt.txt"));
+  const Eigen::Isometry3d estimate = readTransformFile(dir.file("T.txt"));
+  EXPECT_LT(rotationErrorDeg(estimate, truth), 15.0);  // the 3DMatch criterion
+  EXPECT_LT(translationError(estimate, truth), 0.30);
+}
+
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+TEST(MacRegisterCli, CloudsRegisterAndPrintTheFrontEnd) {
+  TempDir dir;
+  const CliRun r =
+      run(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +
+          dataPath("redkitchen_4_0/target_cloud_bin_0.pcd") + " --config " + MAC_CONFIG_DIR +
+          "/indoor_rgbd.yaml --out " + dir.file("T.txt") + " --save-correspondences " + dir.file("c.txt"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "front end: resolution")) << r.output;
+  const Eigen::Isometry3d truth = readTransformFile(dataPath("redkitchen_4_0/T_target_source_gt.txt"));
+  const Eigen::Isometry3d estimate = readTransformFile(dir.file("T.txt"));
+  EXPECT_LT(rotationErrorDeg(estimate, truth), 15.0);
+  EXPECT_LT(translationError(estimate, truth), 0.30);
+  EXPECT_GT(readCorrespondencesFile(dir.file("c.txt")).size(), 1000u);
+}
+
+TEST(MacRegisterCli, MissingAndCorruptCloudsExitTwoNamingTheFile) {
+  TempDir dir;
+  const std::string good = dataPath("redkitchen_4_0/target_cloud_bin_0.pcd");
+  CliRun r = run(dir.file("absent.pcd") + " " + good);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, dir.file("absent.pcd")) && contains(r.output, "no such file")) << r.output;
+  r = run(good + " " + dir.write("corrupt.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 9\n"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "corrupt.ply")) << r.output;
+  r = run(dir.write("garbage.pcd", "not a cloud\n") + " " + good);  // PCL alone would crash on it
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "garbage.pcd")) << r.output;
+  r = run(good + " " + dir.write("scan.bin", std::string(17, 'x')));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "scan.bin")) << r.output;
+  r = run(good);  // one cloud only
+  EXPECT_EQ(r.status, 2);
+  r = run(good + " " + good + " --set features.voxel_size=-1");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "features.voxel_size")) << r.output;
+}
+#else
+TEST(MacRegisterCli, CoreOnlyBuildRefusesCloudsWithTheReason) {
+  const CliRun r = run(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +
+                       dataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "no PCL front end")) << r.output;
+}
+#endif
+
+}  // namespace
+}  // namespace mac_registration

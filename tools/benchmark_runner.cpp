@@ -1,0 +1,95 @@
+#include "benchmark_runner.hpp"
+
+#include <exception>
+
+#include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/text_io.hpp"
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+#include "mac_registration/features/cloud_registration.hpp"
+#include "mac_registration/features/ransac_baseline.hpp"
+#endif
+
+namespace mac_registration {
+namespace {
+
+double inlierRatio(const CorrespondenceSet& c, const Eigen::Isometry3d& T, double threshold) {
+  if (c.size() == 0) return 0.0;
+  std::size_t inliers = 0;
+  for (Eigen::Index k = 0; k < c.source_points.cols(); ++k)
+    inliers += (T * c.source_points.col(k) - c.target_points.col(k)).norm() < threshold;
+  return double(inliers) / double(c.size());
+}
+
+MethodOutcome outcomeOf(const std::string& method, const MacResult& result, const Eigen::Isometry3d& truth,
+                        const SuccessCriterion& criterion) {
+  MethodOutcome m;
+  m.method = method;
+  m.registered = result.success;
+  m.status = toString(result.status);
+  // kTooFewInliers still carries the best transform: its error is worth a look in the CSV.
+  if (result.success || result.status == RegistrationStatus::kTooFewInliers) {
+    m.rotation_error_deg = rotationErrorDeg(result.T_target_source, truth);
+    m.translation_error = translationError(result.T_target_source, truth);
+  }
+  m.inliers = result.counters.inliers;
+  m.times = result.times;
+  return judge(m, criterion);
+}
+
+}  // namespace
+
+bool benchmarkHasFeatures() {
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+  return true;
+#else
+  return false;
+#endif
+}
+
+PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings& settings) {
+  PairOutcome outcome;
+  outcome.name = pair.name;
+  outcome.subset = pair.subset;
+  CorrespondenceSet correspondences;
+  MacParams mac = settings.mac;
+  try {
+    if (pair.hasClouds()) {
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+      const PointCloud::Ptr source = loadCloud(pair.source_path);
+      const PointCloud::Ptr target = loadCloud(pair.target_path);
+      const FeatureCorrespondences features = computeCorrespondences(*source, *target, settings.features);
+      const FrontEndStats& s = features.stats;
+      outcome.front_end = {s.resolution_ms, s.downsample_ms, s.normals_ms, s.features_ms, s.matching_ms};
+      correspondences = features.correspondences;
+      // The same parameters registerClouds() would use.
+      mac = withResolutionUnits(settings.mac, settings.features, s.resolution);
+#else
+      throw std::runtime_error("this build has no PCL front end: clouds cannot be registered");
+#endif
+    } else {
+      correspondences = readCorrespondencesFile(pair.correspondences_path);
+    }
+  } catch (const std::exception& e) {
+    outcome.error = e.what();
+    return outcome;
+  }
+  outcome.correspondences = correspondences.size();
+  outcome.inlier_ratio =
+      inlierRatio(correspondences, pair.T_target_source_gt, settings.mac.evaluation.inlier_threshold);
+
+  outcome.methods.push_back(outcomeOf("MAC", registerCorrespondences(correspondences, mac),
+                                      pair.T_target_source_gt, settings.criterion));
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+  if (settings.baseline) {
+    RansacParams ransac;
+    ransac.inlier_threshold = settings.mac.evaluation.inlier_threshold;
+    ransac.min_inliers = settings.mac.evaluation.min_inliers;
+    ransac.max_iterations = settings.ransac_max_iterations;
+    outcome.methods.push_back(outcomeOf("RANSAC", registerCorrespondencesRansac(correspondences, ransac),
+                                        pair.T_target_source_gt, settings.criterion));
+  }
+#endif
+  return outcome;
+}
+
+}  // namespace mac_registration

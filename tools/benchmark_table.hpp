@@ -1,0 +1,77 @@
+#pragma once
+
+#include <cstddef>
+#include <limits>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "mac_registration/core/mac_result.hpp"
+
+namespace mac_registration {
+
+// When a registration counts as recalled (the papers' registration recall).
+struct SuccessCriterion {
+  double max_rotation_deg = 15.0;  // [deg] 3DMatch: 15; KITTI-like lidar: 5
+  double max_translation = 0.30;   // [m] 3DMatch: 0.3; KITTI-like lidar: 0.6
+  bool accepts(double rotation_error_deg, double translation_error) const {
+    return rotation_error_deg <= max_rotation_deg && translation_error <= max_translation;
+  }
+};
+
+// Time of the front end per stage [ms], zero for correspondence sets.
+struct FrontEndTimes {
+  double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0, matching_ms = 0.0;
+  double total() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
+};
+
+// What one method made of one pair.
+struct MethodOutcome {
+  std::string method;       // "MAC", "RANSAC"
+  bool registered = false;  // the method reported success
+  std::string status;       // its status, e.g. "success", "too few inliers"
+  double rotation_error_deg = std::numeric_limits<double>::quiet_NaN();  // NaN without a transform
+  double translation_error = std::numeric_limits<double>::quiet_NaN();   // [m]
+  bool recalled = false;    // registered and within the criterion
+  std::size_t inliers = 0;  // of its own transform, at its own threshold
+  StageTimes times;         // per stage for MAC, total only for the baseline
+};
+
+struct PairOutcome {
+  std::string name, subset;
+  std::string error;  // set when the pair could not be run (e.g. unreadable cloud): every method missed it
+  std::size_t correspondences = 0;
+  double inlier_ratio =
+      0.0;  // share of the correspondences within tau of their target under the ground truth
+  FrontEndTimes front_end;
+  std::vector<MethodOutcome> methods;  // same methods, same order, for every pair that ran
+};
+
+// The method's outcome for a pair, after the criterion: recalled = registered && criterion accepts.
+MethodOutcome judge(MethodOutcome outcome, const SuccessCriterion& criterion);
+
+// One line of the paper-style table: a subset (or "all") and a method.
+struct SummaryRow {
+  std::string subset, method;
+  std::size_t pairs = 0;  // of the subset, including pairs that could not be run
+  std::size_t recalled = 0;
+  double recall = 0.0;                                                        // recalled / pairs
+  double mean_rotation_error_deg = std::numeric_limits<double>::quiet_NaN();  // over recalled pairs
+  double mean_translation_error = std::numeric_limits<double>::quiet_NaN();   // [m], over recalled pairs
+  double mean_inlier_ratio = 0.0;  // of the correspondences, over the pairs that ran
+  FrontEndTimes median_front_end;  // stage by stage, over the pairs that ran
+  double median_front_end_total_ms = 0.0;
+  StageTimes median_times;  // stage by stage, over the pairs that ran
+};
+
+// Rows per subset in order of first appearance, then "all" when there is more than one subset; within
+// each, the methods in the order of the first pair that ran.
+std::vector<SummaryRow> summarize(const std::vector<PairOutcome>& outcomes);
+
+void printSummary(std::ostream& out, const std::vector<SummaryRow>& rows, const SuccessCriterion& criterion);
+
+// One row per pair and method (a pair that could not be run: one row with its error); what
+// tools/plot_benchmark.py reads.
+void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcomes);
+
+}  // namespace mac_registration
