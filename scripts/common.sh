@@ -6,7 +6,9 @@ export PATH="/usr/bin:/bin:/usr/sbin:/sbin:${PATH:-}"
 export ROS_HOSTNAME=localhost
 export ROS_HOME="${ROS_HOME:-${HOME:-/tmp}/.ros}"
 PROJECT_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-WORKSPACE="${MAC_WORKSPACE:-$PROJECT_DIR/build/ws}"
+# The catkin workspace links to this checkout, so it must lie outside it: roslaunch and rospack follow
+# symbolic links and would find the package inside itself again and again.
+WORKSPACE="${MAC_WORKSPACE:-$(dirname "$PROJECT_DIR")/mac_registration_ws}"
 
 # Debian 12 packages the package builds, tests and runs with.
 DEBIAN_PACKAGES=(

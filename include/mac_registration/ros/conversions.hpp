@@ -1,0 +1,38 @@
+#pragma once
+
+#include <geometry_msgs/Transform.h>
+#include <mac_registration/Correspondences.h>
+#include <mac_registration/RegistrationResult.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <string>
+
+#include "mac_registration/features/cloud_registration.hpp"
+
+namespace mac_registration {
+
+// A PointCloud2 checked and reduced to its finite x y z points.
+struct CloudConversion {
+  PointCloud::Ptr cloud;  // null when error is set
+  std::size_t dropped_non_finite = 0;
+  std::string error;  // why the message cannot be used, empty if it can
+};
+
+// Accepts any layout with float32 x, y, z fields (organized or not, any other fields); refuses empty
+// clouds, missing or non-float32 x/y/z, and data shorter than its declared size, with a reason.
+CloudConversion toPointCloud(const sensor_msgs::PointCloud2& msg);
+
+// An x y z float32 PointCloud2 of `cloud`, transformed by T.
+sensor_msgs::PointCloud2 toPointCloud2(const PointCloud& cloud, const Eigen::Isometry3d& T,
+                                       const std_msgs::Header& header);
+
+// Throws std::invalid_argument when the point arrays differ in length.
+CorrespondenceSet toCorrespondences(const mac_registration::Correspondences& msg);
+
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T);
+
+// Fills the core part of a result message (status, transform, counters, times).
+void fillResultMsg(const MacResult& result, mac_registration::RegistrationResult& msg);
+void fillFrontEndStats(const FrontEndStats& stats, mac_registration::RegistrationResult& msg);
+
+}  // namespace mac_registration

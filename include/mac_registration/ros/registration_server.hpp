@@ -1,0 +1,102 @@
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <mac_registration/Correspondences.h>
+#include <mac_registration/MacRegistrationConfig.h>
+#include <mac_registration/Register.h>
+#include <mac_registration/RegisterCorrespondences.h>
+#include <mac_registration/RegistrationResult.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <boost/thread/recursive_mutex.hpp>
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "mac_registration/ros/latest_slot.hpp"
+#include "mac_registration/ros/server_config.hpp"
+
+namespace mac_registration {
+
+// Everything ROS of the package: inputs (source/target clouds, correspondences, two services), one worker
+// with a latest-only slot, outputs (~result, ~aligned, ~correspondence_markers, tf, /diagnostics),
+// parameters and dynamic_reconfigure. The nodelet and the node are thin shells around it.
+class RegistrationServer {
+ public:
+  // Throws std::invalid_argument listing every invalid parameter.
+  RegistrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~RegistrationServer();
+
+ private:
+  struct Job {
+    sensor_msgs::PointCloud2ConstPtr source, target;
+    mac_registration::CorrespondencesConstPtr correspondences;
+  };
+  // A registration with what the visual outputs need.
+  struct Outcome {
+    mac_registration::RegistrationResult msg;
+    PointCloud::Ptr source_cloud;
+    CorrespondenceSet correspondences;
+    std::vector<int> inliers;
+    Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+  };
+  using SyncPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::PointCloud2, sensor_msgs::PointCloud2>;
+
+  void onSource(const sensor_msgs::PointCloud2ConstPtr& source);
+  void onTarget(const sensor_msgs::PointCloud2ConstPtr& target);
+  void onSynchronized(const sensor_msgs::PointCloud2ConstPtr& source,
+                      const sensor_msgs::PointCloud2ConstPtr& target);
+  void onCorrespondences(const mac_registration::CorrespondencesConstPtr& correspondences);
+  bool onRegister(Register::Request& request, Register::Response& response);
+  bool onRegisterCorrespondences(RegisterCorrespondences::Request& request,
+                                 RegisterCorrespondences::Response& response);
+  void onReconfigure(MacRegistrationConfig& config, std::uint32_t level);
+
+  void workerLoop();
+  Outcome registerClouds(const sensor_msgs::PointCloud2& source, const sensor_msgs::PointCloud2& target);
+  Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences);
+  void publish(Outcome& outcome);
+  bool publishTf(const Outcome& outcome, std::string& problem);
+  void reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  ServerConfig config() const;
+
+  ros::NodeHandle nh_, private_nh_;
+  mutable std::mutex config_mutex_;
+  ServerConfig config_;
+
+  ros::Subscriber source_sub_, target_sub_, correspondences_sub_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::PointCloud2>> sync_source_sub_, sync_target_sub_;
+  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> synchronizer_;
+  ros::Publisher result_pub_, aligned_pub_, markers_pub_;
+  ros::ServiceServer register_srv_, register_correspondences_srv_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  diagnostic_updater::Updater diagnostics_;
+  ros::Timer diagnostics_timer_;
+  std::unique_ptr<dynamic_reconfigure::Server<MacRegistrationConfig>> reconfigure_;
+  boost::recursive_mutex reconfigure_mutex_;
+
+  std::mutex target_mutex_;
+  sensor_msgs::PointCloud2ConstPtr latest_target_;
+
+  LatestSlot<Job> jobs_;
+  std::thread worker_;
+
+  std::mutex stats_mutex_;
+  std::size_t registrations_ = 0, failures_ = 0;
+  mac_registration::RegistrationResult last_result_;
+};
+
+}  // namespace mac_registration

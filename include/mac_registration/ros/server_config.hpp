@@ -1,0 +1,42 @@
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <vector>
+
+#include "mac_registration/core/parameters.hpp"
+#include "mac_registration/features/cloud_registration.hpp"
+
+namespace mac_registration {
+
+// What the ROS node does with its inputs and results (the algorithm's parameters are in MacParams and
+// FeatureParams). Documented with units and defaults in config/registration_node.yaml.
+struct NodeParams {
+  enum class TargetMode { kLatest, kSynchronized };
+  enum class TfMode { kTargetSource, kMapOdom };
+
+  TargetMode target_mode = TargetMode::kLatest;
+  double sync_slop = 0.05;  // [s] largest stamp difference of a synchronized source/target pair
+  bool publish_tf = true;
+  TfMode tf_mode = TfMode::kTargetSource;
+  std::string odom_frame = "odom";  // map_odom mode: the frame whose parent becomes the target frame
+  double tf_timeout = 0.1;          // [s] waiting for odom_frame <- source frame at the scan's stamp
+  int max_marker_lines = 500;       // outlier lines drawn at most (inliers are all drawn)
+};
+
+struct ServerConfig {
+  NodeParams node;
+  FeatureParams features;
+  MacParams mac;
+};
+
+// Reads the private parameters (sections graph/, cliques/, selection/, hypotheses/, evaluation/,
+// refinement/, features/ as in config/*.yaml, plus the node's own) over the defaults in `config`.
+// Returns every problem as a sentence naming the parameter; empty when the configuration is usable.
+std::vector<std::string> loadServerConfig(const ros::NodeHandle& private_nh, ServerConfig& config);
+
+// The effective configuration on a few lines, for the start-up log.
+std::string describeConfig(const ServerConfig& config);
+
+}  // namespace mac_registration

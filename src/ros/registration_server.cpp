@@ -1,0 +1,347 @@
+#include "mac_registration/ros/registration_server.hpp"
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <chrono>
+#include <sstream>
+#include <stdexcept>
+
+#include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/ros/conversions.hpp"
+#include "mac_registration/ros/visualization.hpp"
+
+namespace mac_registration {
+namespace {
+
+std::string joined(const std::vector<std::string>& lines) {
+  std::string text;
+  for (const auto& line : lines) text += "\n  - " + line;
+  return text;
+}
+
+mac_registration::RegistrationResult invalidInput(const std::string& message) {
+  mac_registration::RegistrationResult msg;
+  msg.success = false;
+  msg.status = toString(RegistrationStatus::kInvalidInput);
+  msg.message = message;
+  msg.transform.rotation.w = 1.0;
+  return msg;
+}
+
+}  // namespace
+
+RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_), diagnostics_(nh, private_nh) {
+  const auto problems = loadServerConfig(private_nh_, config_);
+  if (!problems.empty()) {
+    throw std::invalid_argument("invalid parameters in " + private_nh_.getNamespace() + ":" +
+                                joined(problems));
+  }
+  ROS_INFO_STREAM("mac_registration: effective configuration (" << private_nh_.getNamespace()
+                                                                << "): " << describeConfig(config_));
+
+  result_pub_ = private_nh_.advertise<mac_registration::RegistrationResult>("result", 10);
+  aligned_pub_ = private_nh_.advertise<sensor_msgs::PointCloud2>("aligned", 1);
+  markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("correspondence_markers", 1);
+
+  if (config_.node.target_mode == NodeParams::TargetMode::kSynchronized) {
+    sync_source_sub_ =
+        std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(nh_, "source", 1);
+    sync_target_sub_ =
+        std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(nh_, "target", 1);
+    synchronizer_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(
+        SyncPolicy(5), *sync_source_sub_, *sync_target_sub_);
+    synchronizer_->setMaxIntervalDuration(ros::Duration(config_.node.sync_slop));
+    synchronizer_->registerCallback(&RegistrationServer::onSynchronized, this);
+  } else {
+    source_sub_ = nh_.subscribe("source", 1, &RegistrationServer::onSource, this);
+    target_sub_ = nh_.subscribe("target", 1, &RegistrationServer::onTarget, this);
+  }
+  correspondences_sub_ = nh_.subscribe("correspondences", 1, &RegistrationServer::onCorrespondences, this);
+  register_srv_ = private_nh_.advertiseService("register", &RegistrationServer::onRegister, this);
+  register_correspondences_srv_ = private_nh_.advertiseService(
+      "register_correspondences", &RegistrationServer::onRegisterCorrespondences, this);
+
+  diagnostics_.setHardwareID("mac_registration");
+  diagnostics_.add("registration", this, &RegistrationServer::reportDiagnostics);
+  diagnostics_timer_ =
+      nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+
+  // The reconfigure server starts from the loaded values, not from its own defaults.
+  reconfigure_ =
+      std::make_unique<dynamic_reconfigure::Server<MacRegistrationConfig>>(reconfigure_mutex_, private_nh_);
+  MacRegistrationConfig initial;
+  initial.t_cmp = config_.mac.graph.t_cmp;
+  initial.gaussian_sigma = config_.mac.graph.gaussian_sigma;
+  initial.quadratic_threshold = config_.mac.graph.quadratic_threshold;
+  initial.inlier_threshold = config_.mac.evaluation.inlier_threshold;
+  initial.min_inliers = static_cast<int>(config_.mac.evaluation.min_inliers);
+  initial.clique_time_limit = config_.mac.cliques.time_limit;
+  initial.voxel_size = config_.features.voxel_size;
+  reconfigure_->updateConfig(initial);
+  reconfigure_->setCallback(
+      [this](MacRegistrationConfig& c, std::uint32_t level) { onReconfigure(c, level); });
+
+  worker_ = std::thread([this] { workerLoop(); });
+  ROS_INFO_STREAM("mac_registration: listening on " << nh_.resolveName("source") << ", "
+                                                    << nh_.resolveName("target") << " and "
+                                                    << nh_.resolveName("correspondences"));
+}
+
+RegistrationServer::~RegistrationServer() {
+  jobs_.close();
+  if (worker_.joinable()) worker_.join();
+}
+
+ServerConfig RegistrationServer::config() const {
+  std::lock_guard<std::mutex> lock(config_mutex_);
+  return config_;
+}
+
+void RegistrationServer::onReconfigure(MacRegistrationConfig& c, std::uint32_t) {
+  ServerConfig next = config();
+  next.mac.graph.t_cmp = c.t_cmp;
+  next.mac.graph.gaussian_sigma = c.gaussian_sigma;
+  next.mac.graph.quadratic_threshold = c.quadratic_threshold;
+  next.mac.evaluation.inlier_threshold = c.inlier_threshold;
+  next.mac.evaluation.min_inliers = static_cast<std::size_t>(c.min_inliers);
+  next.mac.cliques.time_limit = c.clique_time_limit;
+  next.features.voxel_size = c.voxel_size;
+  auto problems = validateParams(next.mac);
+  for (const auto& p : validateFeatureParams(next.features)) problems.push_back(p);
+  if (!problems.empty()) {
+    ROS_ERROR_STREAM(
+        "mac_registration: reconfiguration refused, keeping the previous values:" << joined(problems));
+    return;
+  }
+  std::lock_guard<std::mutex> lock(config_mutex_);
+  config_ = next;
+  ROS_INFO_STREAM("mac_registration: reconfigured: " << describeConfig(config_));
+}
+
+void RegistrationServer::onSource(const sensor_msgs::PointCloud2ConstPtr& source) {
+  sensor_msgs::PointCloud2ConstPtr target;
+  {
+    std::lock_guard<std::mutex> lock(target_mutex_);
+    target = latest_target_;
+  }
+  if (!target) {
+    ROS_WARN_THROTTLE(5.0, "mac_registration: source cloud received but no target yet on %s",
+                      nh_.resolveName("target").c_str());
+  }
+  jobs_.put(Job{source, target, nullptr});
+}
+
+void RegistrationServer::onSynchronized(const sensor_msgs::PointCloud2ConstPtr& source,
+                                        const sensor_msgs::PointCloud2ConstPtr& target) {
+  jobs_.put(Job{source, target, nullptr});
+}
+
+void RegistrationServer::onTarget(const sensor_msgs::PointCloud2ConstPtr& target) {
+  std::lock_guard<std::mutex> lock(target_mutex_);
+  latest_target_ = target;
+}
+
+void RegistrationServer::onCorrespondences(const mac_registration::CorrespondencesConstPtr& correspondences) {
+  jobs_.put(Job{nullptr, nullptr, correspondences});
+}
+
+bool RegistrationServer::onRegister(Register::Request& request, Register::Response& response) {
+  sensor_msgs::PointCloud2ConstPtr target;
+  if (std::size_t(request.target.width) * request.target.height > 0) {
+    target = boost::make_shared<sensor_msgs::PointCloud2>(request.target);
+  } else {
+    std::lock_guard<std::mutex> lock(target_mutex_);
+    target = latest_target_;
+  }
+  Outcome outcome =
+      target ? registerClouds(request.source, *target)
+             : Outcome{invalidInput("the request's target is empty and no target was received on " +
+                                    nh_.resolveName("target")),
+                       nullptr,
+                       {},
+                       {},
+                       Eigen::Isometry3d::Identity()};
+  publish(outcome);
+  response.result = outcome.msg;
+  return true;  // failures travel in result.success / status / message
+}
+
+bool RegistrationServer::onRegisterCorrespondences(RegisterCorrespondences::Request& request,
+                                                   RegisterCorrespondences::Response& response) {
+  Outcome outcome = registerCorrespondences(request.correspondences);
+  publish(outcome);
+  response.result = outcome.msg;
+  return true;
+}
+
+void RegistrationServer::workerLoop() {
+  while (auto job = jobs_.take()) {
+    try {
+      Outcome outcome;
+      if (job->correspondences) {
+        outcome = registerCorrespondences(*job->correspondences);
+      } else if (!job->target) {
+        outcome.msg = invalidInput("no target cloud received yet on " + nh_.resolveName("target"));
+        outcome.msg.header = job->source->header;
+        outcome.msg.child_frame_id = job->source->header.frame_id;
+      } else {
+        outcome = registerClouds(*job->source, *job->target);
+      }
+      publish(outcome);
+    } catch (const std::exception& e) {
+      // Never let one bad message end the worker (or the nodelet manager with it).
+      ROS_ERROR_STREAM("mac_registration: registration failed unexpectedly: " << e.what());
+    }
+  }
+}
+
+RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs::PointCloud2& source,
+                                                               const sensor_msgs::PointCloud2& target) {
+  const ServerConfig cfg = config();
+  Outcome outcome;
+  const CloudConversion source_cloud = toPointCloud(source);
+  const CloudConversion target_cloud = toPointCloud(target);
+  if (!source_cloud.error.empty() || !target_cloud.error.empty()) {
+    outcome.msg = invalidInput(!source_cloud.error.empty() ? "source cloud: " + source_cloud.error
+                                                           : "target cloud: " + target_cloud.error);
+  } else {
+    const CloudRegistrationResult result =
+        mac_registration::registerClouds(*source_cloud.cloud, *target_cloud.cloud, cfg.features, cfg.mac);
+    fillFrontEndStats(result.features.stats, outcome.msg);
+    fillResultMsg(result.registration, outcome.msg);
+    outcome.msg.dropped_points = source_cloud.dropped_non_finite + target_cloud.dropped_non_finite;
+    if (outcome.msg.dropped_points > 0) {
+      outcome.msg.warnings.push_back("dropped " + std::to_string(outcome.msg.dropped_points) +
+                                     " points with NaN/Inf coordinates");
+    }
+    outcome.source_cloud = source_cloud.cloud;
+    outcome.correspondences = result.features.correspondences;
+    outcome.inliers = result.registration.inlier_indices;
+    outcome.T_target_source = result.registration.T_target_source;
+  }
+  outcome.msg.header.stamp = source.header.stamp;
+  outcome.msg.header.frame_id = target.header.frame_id;
+  outcome.msg.child_frame_id = source.header.frame_id;
+  return outcome;
+}
+
+RegistrationServer::Outcome RegistrationServer::registerCorrespondences(
+    const mac_registration::Correspondences& correspondences) {
+  const ServerConfig cfg = config();
+  Outcome outcome;
+  try {
+    outcome.correspondences = toCorrespondences(correspondences);
+    const MacResult result = mac_registration::registerCorrespondences(outcome.correspondences, cfg.mac);
+    fillResultMsg(result, outcome.msg);
+    outcome.inliers = result.inlier_indices;
+    outcome.T_target_source = result.T_target_source;
+  } catch (const std::invalid_argument& e) {
+    outcome.msg = invalidInput(std::string("correspondences: ") + e.what());
+  }
+  outcome.msg.header = correspondences.header;
+  outcome.msg.child_frame_id = correspondences.source_frame;
+  return outcome;
+}
+
+bool RegistrationServer::publishTf(const Outcome& outcome, std::string& problem) {
+  const auto& msg = outcome.msg;
+  const NodeParams node = config().node;
+  if (msg.header.frame_id.empty() || msg.child_frame_id.empty()) {
+    problem = "tf not published: the target or source frame_id is empty";
+    return false;
+  }
+  if (msg.header.frame_id == msg.child_frame_id) {
+    problem = "tf not published: source and target share the frame '" + msg.header.frame_id + "'";
+    return false;
+  }
+  geometry_msgs::TransformStamped tf;
+  tf.header = msg.header;
+  if (node.tf_mode == NodeParams::TfMode::kTargetSource) {
+    tf.child_frame_id = msg.child_frame_id;
+    tf.transform = msg.transform;
+  } else {
+    // REP-105: the target frame becomes the parent of odom, keeping odom -> source continuous.
+    geometry_msgs::TransformStamped odom_source;
+    try {
+      odom_source = tf_buffer_.lookupTransform(node.odom_frame, msg.child_frame_id, msg.header.stamp,
+                                               ros::Duration(node.tf_timeout));
+    } catch (const tf2::TransformException& e) {
+      problem =
+          "tf not published: no transform " + node.odom_frame + " <- " + msg.child_frame_id + ": " + e.what();
+      return false;
+    }
+    const Eigen::Isometry3d T_target_odom =
+        outcome.T_target_source * tf2::transformToEigen(odom_source).inverse();
+    if (!T_target_odom.matrix().allFinite()) {
+      problem = "tf not published: the map -> odom transform is not finite";
+      return false;
+    }
+    tf.child_frame_id = node.odom_frame;
+    tf.transform = toTransformMsg(T_target_odom);
+  }
+  tf_broadcaster_.sendTransform(tf);
+  return true;
+}
+
+void RegistrationServer::publish(Outcome& outcome) {
+  auto& msg = outcome.msg;
+  const ServerConfig cfg = config();
+  if (msg.success && !outcome.T_target_source.matrix().allFinite()) {
+    msg.success = false;
+    msg.status = toString(RegistrationStatus::kInternalError);
+    msg.message = "the transform is not finite";
+  }
+  if (msg.success && cfg.node.publish_tf) {
+    std::string problem;
+    if (!publishTf(outcome, problem)) {
+      msg.warnings.push_back(problem);
+      ROS_WARN_STREAM_THROTTLE(5.0, "mac_registration: " << problem);
+    }
+  }
+  result_pub_.publish(msg);
+  if (msg.success) {
+    const Eigen::Vector3d t = outcome.T_target_source.translation();
+    const double angle = Eigen::AngleAxisd(outcome.T_target_source.linear()).angle() * 180.0 / M_PI;
+    ROS_INFO(
+        "mac_registration: %s <- %s: t = [%.3f %.3f %.3f] m, rotation %.2f deg, %u inliers of %u, %.1f ms",
+        msg.header.frame_id.c_str(), msg.child_frame_id.c_str(), t.x(), t.y(), t.z(), angle, msg.inliers,
+        msg.correspondences, msg.time_total_ms);
+  } else {
+    ROS_WARN_STREAM_THROTTLE(1.0,
+                             "mac_registration: registration failed (" << msg.status << "): " << msg.message);
+  }
+  std_msgs::Header target_header = msg.header;
+  if (msg.success && outcome.source_cloud && aligned_pub_.getNumSubscribers() > 0) {
+    aligned_pub_.publish(toPointCloud2(*outcome.source_cloud, outcome.T_target_source, target_header));
+  }
+  if (msg.success && markers_pub_.getNumSubscribers() > 0 && outcome.correspondences.size() > 0) {
+    const double width = std::max(0.002, 0.2 * cfg.features.voxel_size);
+    markers_pub_.publish(correspondenceMarkers(outcome.correspondences, outcome.inliers,
+                                               outcome.T_target_source, target_header, width,
+                                               cfg.node.max_marker_lines));
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++registrations_;
+  failures_ += !msg.success;
+  last_result_ = msg;
+}
+
+void RegistrationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (registrations_ == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "waiting for input");
+  } else if (last_result_.success) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "last registration succeeded");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "last registration failed: " + last_result_.message);
+  }
+  status.add("registrations", registrations_);
+  status.add("failures", failures_);
+  status.add("inputs dropped (worker busy)", jobs_.dropped());
+  status.add("last inliers", last_result_.inliers);
+  status.add("last total time [ms]", last_result_.time_total_ms);
+}
+
+}  // namespace mac_registration

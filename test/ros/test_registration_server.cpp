@@ -1,0 +1,219 @@
+// Interface test against a running nodelet (real roscore, nodelet manager and tf): services, topics, tf and
+// bad input. The launch file is test/ros/registration_server.test.
+#include <gtest/gtest.h>
+#include <mac_registration/Register.h>
+#include <mac_registration/RegisterCorrespondences.h>
+#include <mac_registration/RegistrationResult.h>
+#include <ros/ros.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <limits>
+
+#include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_registration.hpp"
+#include "mac_registration/ros/conversions.hpp"
+
+namespace mac_registration {
+namespace {
+
+const std::string kData = MAC_TEST_DATA_DIR;
+
+Eigen::Isometry3d toEigen(const geometry_msgs::Transform& t) {
+  geometry_msgs::TransformStamped stamped;
+  stamped.transform = t;
+  return tf2::transformToEigen(stamped);
+}
+
+mac_registration::Correspondences redkitchenCorrespondences(const std::string& target_frame,
+                                                            const std::string& source_frame) {
+  const auto c = readCorrespondencesFile(kData + "/redkitchen_24_59/correspondences.txt");
+  mac_registration::Correspondences msg;
+  msg.header.frame_id = target_frame;
+  msg.header.stamp = ros::Time::now();
+  msg.source_frame = source_frame;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    geometry_msgs::Point s, t;
+    s.x = c.source_points(0, i), s.y = c.source_points(1, i), s.z = c.source_points(2, i);
+    t.x = c.target_points(0, i), t.y = c.target_points(1, i), t.z = c.target_points(2, i);
+    msg.source_points.push_back(s);
+    msg.target_points.push_back(t);
+  }
+  return msg;
+}
+
+sensor_msgs::PointCloud2 xyzCloud(const std::vector<Eigen::Vector3f>& points, const std::string& frame) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame;
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(points.size());
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
+  for (const auto& p : points) {
+    *x = p.x(), *y = p.y(), *z = p.z();
+    ++x, ++y, ++z;
+  }
+  return msg;
+}
+
+// A real 3DMatch pair (redkitchen fragments 4 -> 0, 37.5 % overlap, 3 cm voxels) as PointCloud2 messages.
+sensor_msgs::PointCloud2 redkitchenCloud(const std::string& file, const std::string& frame) {
+  std_msgs::Header header;
+  header.frame_id = frame;
+  header.stamp = ros::Time::now();
+  return toPointCloud2(*loadCloud(kData + "/redkitchen_4_0/" + file), Eigen::Isometry3d::Identity(), header);
+}
+
+void expectWithinBenchmarkCriterion(const mac_registration::RegistrationResult& result) {
+  ASSERT_TRUE(result.success) << result.status << ": " << result.message;
+  const Eigen::Isometry3d truth = readTransformFile(kData + "/redkitchen_4_0/T_target_source_gt.txt");
+  EXPECT_LE(rotationErrorDeg(toEigen(result.transform), truth), 15.0);
+  EXPECT_LE(translationError(toEigen(result.transform), truth), 0.30);
+}
+
+class RegistrationServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(ros::service::waitForService("/mac_registration/register", ros::Duration(60.0)));
+    ASSERT_TRUE(
+        ros::service::waitForService("/mac_registration/register_correspondences", ros::Duration(10.0)));
+  }
+
+  mac_registration::RegistrationResult callRegister(const sensor_msgs::PointCloud2& source,
+                                                    const sensor_msgs::PointCloud2& target) {
+    mac_registration::Register srv;
+    srv.request.source = source;
+    srv.request.target = target;
+    EXPECT_TRUE(ros::service::call("/mac_registration/register", srv));
+    return srv.response.result;
+  }
+
+  ros::NodeHandle nh_;
+};
+
+// Real FPFH matches of 3DMatch redkitchen 24 -> 59 (3.7 % inliers) through the service.
+TEST_F(RegistrationServerTest, RegisterCorrespondencesServiceMeetsTheBenchmarkCriterion) {
+  mac_registration::RegisterCorrespondences srv;
+  srv.request.correspondences = redkitchenCorrespondences("fragment_59", "fragment_24");
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+  const auto& result = srv.response.result;
+  ASSERT_TRUE(result.success) << result.status << ": " << result.message;
+  const Eigen::Isometry3d truth = readTransformFile(kData + "/redkitchen_24_59/T_target_source_gt.txt");
+  EXPECT_LE(rotationErrorDeg(toEigen(result.transform), truth), 15.0);
+  EXPECT_LE(translationError(toEigen(result.transform), truth), 0.30);
+  EXPECT_EQ(result.header.frame_id, "fragment_59");
+  EXPECT_EQ(result.child_frame_id, "fragment_24");
+  EXPECT_EQ(result.correspondences, 5678u);
+}
+
+// The topic path: correspondences in, ~result out, and the transform on tf.
+TEST_F(RegistrationServerTest, CorrespondencesTopicPublishesResultAndTf) {
+  mac_registration::RegistrationResultConstPtr received;
+  ros::Subscriber sub = nh_.subscribe<mac_registration::RegistrationResult>(
+      "/mac_registration/result", 10, [&](const mac_registration::RegistrationResultConstPtr& r) {
+        if (r->child_frame_id == "topic_source") received = r;
+      });
+  ros::Publisher pub = nh_.advertise<mac_registration::Correspondences>("/correspondences", 1, true);
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  const auto msg = redkitchenCorrespondences("topic_target", "topic_source");
+  pub.publish(msg);
+  for (int i = 0; i < 300 && !received; ++i) ros::Duration(0.1).sleep();
+  ASSERT_TRUE(received) << "no result on /mac_registration/result";
+  ASSERT_TRUE(received->success) << received->message;
+  const auto tf =
+      buffer.lookupTransform("topic_target", "topic_source", received->header.stamp, ros::Duration(5.0));
+  EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(received->transform), 1e-6));
+}
+
+TEST_F(RegistrationServerTest, RegisterServiceAlignsARealScanPair) {
+  const auto result = callRegister(redkitchenCloud("source_cloud_bin_4.pcd", "fragment_4"),
+                                   redkitchenCloud("target_cloud_bin_0.pcd", "fragment_0"));
+  expectWithinBenchmarkCriterion(result);
+  EXPECT_GT(result.source_keypoints, 0u);
+  EXPECT_GT(result.time_front_end_ms, 0.0);
+}
+
+// The topic path with clouds: a latched target, then a source; ~result, ~aligned and tf must follow.
+TEST_F(RegistrationServerTest, CloudTopicsPublishResultAlignedCloudAndTf) {
+  mac_registration::RegistrationResultConstPtr received;
+  sensor_msgs::PointCloud2ConstPtr aligned;
+  ros::Subscriber result_sub = nh_.subscribe<mac_registration::RegistrationResult>(
+      "/mac_registration/result", 10, [&](const mac_registration::RegistrationResultConstPtr& r) {
+        if (r->child_frame_id == "cloud_topic_source") received = r;
+      });
+  ros::Subscriber aligned_sub = nh_.subscribe<sensor_msgs::PointCloud2>(
+      "/mac_registration/aligned", 1, [&](const sensor_msgs::PointCloud2ConstPtr& c) { aligned = c; });
+  ros::Publisher target_pub = nh_.advertise<sensor_msgs::PointCloud2>("/target", 1, true);
+  ros::Publisher source_pub = nh_.advertise<sensor_msgs::PointCloud2>("/source", 1, true);
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  target_pub.publish(redkitchenCloud("target_cloud_bin_0.pcd", "cloud_topic_target"));
+  ros::Duration(1.0).sleep();  // the target must be there before the source
+  const auto source = redkitchenCloud("source_cloud_bin_4.pcd", "cloud_topic_source");
+  source_pub.publish(source);
+  for (int i = 0; i < 600 && !(received && aligned); ++i) ros::Duration(0.1).sleep();
+  ASSERT_TRUE(received) << "no result on /mac_registration/result";
+  expectWithinBenchmarkCriterion(*received);
+  ASSERT_TRUE(aligned) << "nothing on /mac_registration/aligned";
+  EXPECT_EQ(aligned->header.frame_id, "cloud_topic_target");
+  EXPECT_EQ(std::size_t(aligned->width) * aligned->height, std::size_t(source.width) * source.height);
+  const auto tf = buffer.lookupTransform("cloud_topic_target", "cloud_topic_source", received->header.stamp,
+                                         ros::Duration(5.0));
+  EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(received->transform), 1e-6));
+}
+
+TEST_F(RegistrationServerTest, BadCloudsFailWithAReasonAndTheNodeStaysUp) {
+  const auto good = xyzCloud({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, "a");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+
+  const auto empty = callRegister(xyzCloud({}, "s"), good);
+  EXPECT_FALSE(empty.success);
+  EXPECT_NE(empty.message.find("empty"), std::string::npos) << empty.message;
+
+  const auto all_nan = callRegister(xyzCloud({{nan, nan, nan}, {nan, 0, 0}, {0, nan, 0}}, "s"), good);
+  EXPECT_FALSE(all_nan.success);
+  EXPECT_FALSE(all_nan.message.empty());
+
+  sensor_msgs::PointCloud2 intensity_only;
+  intensity_only.header.frame_id = "s";
+  sensor_msgs::PointCloud2Modifier modifier(intensity_only);
+  modifier.setPointCloud2Fields(1, "intensity", 1, sensor_msgs::PointField::FLOAT32);
+  modifier.resize(10);
+  const auto no_xyz = callRegister(intensity_only, good);
+  EXPECT_FALSE(no_xyz.success);
+  EXPECT_NE(no_xyz.message.find("'x'"), std::string::npos) << no_xyz.message;
+
+  const auto two_points = callRegister(xyzCloud({{0, 0, 0}, {1, 0, 0}}, "s"), good);
+  EXPECT_FALSE(two_points.success);
+  EXPECT_FALSE(two_points.message.empty());
+
+  // Still answering, and still registering.
+  mac_registration::RegisterCorrespondences srv;
+  srv.request.correspondences = redkitchenCorrespondences("after_t", "after_s");
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+  EXPECT_TRUE(srv.response.result.success) << srv.response.result.message;
+}
+
+TEST_F(RegistrationServerTest, MismatchedCorrespondencesFailWithAReason) {
+  mac_registration::RegisterCorrespondences srv;
+  srv.request.correspondences = redkitchenCorrespondences("t", "s");
+  srv.request.correspondences.target_points.pop_back();
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+  EXPECT_FALSE(srv.response.result.success);
+  EXPECT_EQ(srv.response.result.status, "invalid input");
+  // Identity, never garbage, on failure.
+  EXPECT_TRUE(toEigen(srv.response.result.transform).isApprox(Eigen::Isometry3d::Identity()));
+}
+
+}  // namespace
+}  // namespace mac_registration
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_registration_server");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
