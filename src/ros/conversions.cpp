@@ -104,6 +104,32 @@ CorrespondenceSet toCorrespondences(const mac_registration::Correspondences& msg
   return c;
 }
 
+mac_registration::Correspondences toCorrespondencesMsg(const CorrespondenceSet& c,
+                                                       const std_msgs::Header& header,
+                                                       const std::string& source_frame) {
+  mac_registration::Correspondences msg;
+  msg.header = header;
+  msg.source_frame = source_frame;
+  msg.source_points.resize(c.size());
+  msg.target_points.resize(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    auto& s = msg.source_points[i];
+    auto& t = msg.target_points[i];
+    s.x = c.source_points(0, i), s.y = c.source_points(1, i), s.z = c.source_points(2, i);
+    t.x = c.target_points(0, i), t.y = c.target_points(1, i), t.z = c.target_points(2, i);
+  }
+  return msg;
+}
+
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(msg.rotation.w, msg.rotation.x, msg.rotation.y, msg.rotation.z)
+                   .normalized()
+                   .toRotationMatrix();
+  T.translation() << msg.translation.x, msg.translation.y, msg.translation.z;
+  return T;
+}
+
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T) {
   geometry_msgs::Transform msg;
   msg.translation.x = T.translation().x();

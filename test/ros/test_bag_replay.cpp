@@ -7,7 +7,6 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <fstream>
@@ -16,6 +15,7 @@
 #include <sstream>
 
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/ros/conversions.hpp"
 
 namespace mac_registration {
 namespace {
@@ -88,9 +88,7 @@ TEST(BagReplay, EveryScanIsRegisteredToTheFirst) {
     ASSERT_TRUE(r.success) << "scan " << j << ": " << r.status << ": " << r.message;
     EXPECT_EQ(r.header.frame_id, "scan_0");
     EXPECT_EQ(r.child_frame_id, "luminar_lidar");
-    geometry_msgs::TransformStamped stamped;
-    stamped.transform = r.transform;
-    const Eigen::Isometry3d T = tf2::transformToEigen(stamped);
+    const Eigen::Isometry3d T = toIsometry(r.transform);
     const Eigen::Isometry3d expected = j == 0 ? Eigen::Isometry3d::Identity() : reference.at(int(j));
     // The lidar benchmark criterion (RE <= 5 deg, TE <= 0.6 m) against the ICP reference.
     EXPECT_LE(rotationErrorDeg(T, expected), 5.0) << "scan " << j;

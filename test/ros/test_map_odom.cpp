@@ -7,33 +7,23 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/ros/conversions.hpp"
 
 namespace mac_registration {
 namespace {
 
 mac_registration::RegisterCorrespondences request(const std::string& source_frame) {
-  const auto c =
-      readCorrespondencesFile(std::string(MAC_TEST_DATA_DIR) + "/redkitchen_24_59/correspondences.txt");
+  std_msgs::Header header;
+  header.frame_id = "map";
+  header.stamp = ros::Time::now();
   mac_registration::RegisterCorrespondences srv;
-  auto& msg = srv.request.correspondences;
-  msg.header.frame_id = "map";
-  msg.header.stamp = ros::Time::now();
-  msg.source_frame = source_frame;
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    geometry_msgs::Point s, t;
-    s.x = c.source_points(0, i), s.y = c.source_points(1, i), s.z = c.source_points(2, i);
-    t.x = c.target_points(0, i), t.y = c.target_points(1, i), t.z = c.target_points(2, i);
-    msg.source_points.push_back(s);
-    msg.target_points.push_back(t);
-  }
+  srv.request.correspondences = toCorrespondencesMsg(
+      readCorrespondencesFile(std::string(MAC_TEST_DATA_DIR) + "/redkitchen_24_59/correspondences.txt"),
+      header, source_frame);
   return srv;
 }
 
-Eigen::Isometry3d toEigen(const geometry_msgs::Transform& t) {
-  geometry_msgs::TransformStamped stamped;
-  stamped.transform = t;
-  return tf2::transformToEigen(stamped);
-}
+Eigen::Isometry3d toEigen(const geometry_msgs::Transform& t) { return toIsometry(t); }
 
 TEST(MapOdom, PublishesMapToOdomFromTheExistingOdometry) {
   ASSERT_TRUE(

@@ -20,27 +20,15 @@ namespace {
 
 const std::string kData = MAC_TEST_DATA_DIR;
 
-Eigen::Isometry3d toEigen(const geometry_msgs::Transform& t) {
-  geometry_msgs::TransformStamped stamped;
-  stamped.transform = t;
-  return tf2::transformToEigen(stamped);
-}
+Eigen::Isometry3d toEigen(const geometry_msgs::Transform& t) { return toIsometry(t); }
 
 mac_registration::Correspondences redkitchenCorrespondences(const std::string& target_frame,
                                                             const std::string& source_frame) {
-  const auto c = readCorrespondencesFile(kData + "/redkitchen_24_59/correspondences.txt");
-  mac_registration::Correspondences msg;
-  msg.header.frame_id = target_frame;
-  msg.header.stamp = ros::Time::now();
-  msg.source_frame = source_frame;
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    geometry_msgs::Point s, t;
-    s.x = c.source_points(0, i), s.y = c.source_points(1, i), s.z = c.source_points(2, i);
-    t.x = c.target_points(0, i), t.y = c.target_points(1, i), t.z = c.target_points(2, i);
-    msg.source_points.push_back(s);
-    msg.target_points.push_back(t);
-  }
-  return msg;
+  std_msgs::Header header;
+  header.frame_id = target_frame;
+  header.stamp = ros::Time::now();
+  return toCorrespondencesMsg(readCorrespondencesFile(kData + "/redkitchen_24_59/correspondences.txt"),
+                              header, source_frame);
 }
 
 sensor_msgs::PointCloud2 xyzCloud(const std::vector<Eigen::Vector3f>& points, const std::string& frame) {

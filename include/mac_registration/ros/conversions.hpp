@@ -29,7 +29,13 @@ sensor_msgs::PointCloud2 toPointCloud2(const PointCloud& cloud, const Eigen::Iso
 // Throws std::invalid_argument when the point arrays differ in length.
 CorrespondenceSet toCorrespondences(const mac_registration::Correspondences& msg);
 
+// The message form of a correspondence set (header.frame_id = target frame).
+mac_registration::Correspondences toCorrespondencesMsg(const CorrespondenceSet& correspondences,
+                                                       const std_msgs::Header& target_header,
+                                                       const std::string& source_frame);
+
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T);
+Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg);
 
 // Fills the core part of a result message (status, transform, counters, times).
 void fillResultMsg(const MacResult& result, mac_registration::RegistrationResult& msg);
