@@ -18,15 +18,6 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// One cloud's share of the front end: its keypoints that carry a descriptor, and the descriptors.
-struct DescribedKeypoints {
-  PointCloud::Ptr points;
-  NormalCloud::Ptr normals;
-  FpfhCloud::Ptr descriptors;
-  std::size_t voxels = 0;      // keypoints after the voxel grid
-  std::size_t no_feature = 0;  // of them, without a normal or a usable descriptor
-};
-
 // Keeps the entries of `cloud` at `indices`; the clouds stay unorganized.
 template <typename Point>
 typename pcl::PointCloud<Point>::Ptr subset(const pcl::PointCloud<Point>& cloud,
@@ -37,13 +28,41 @@ typename pcl::PointCloud<Point>::Ptr subset(const pcl::PointCloud<Point>& cloud,
   return kept;
 }
 
-DescribedKeypoints describe(const PointCloud::ConstPtr& finite, const FeatureParams& params,
-                            FrontEndStats& stats) {
-  DescribedKeypoints out;
+void throwIfInvalid(const FeatureParams& params) {
+  const auto problems = validateFeatureParams(params);
+  if (problems.empty()) return;
+  std::string message = "invalid feature parameters:";
+  for (const auto& p : problems) message += " " + p;
+  throw std::invalid_argument(message);
+}
+
+// Descriptors depend on these; matching descriptors computed with different ones would be meaningless.
+bool sameDescription(const FeatureParams& a, const FeatureParams& b) {
+  return a.voxel_size == b.voxel_size && a.normal_radius_factor == b.normal_radius_factor &&
+         a.feature_radius_factor == b.feature_radius_factor;
+}
+
+}  // namespace
+
+DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role) {
+  throwIfInvalid(params);
+  DescribedCloud out;
+  out.params = params;
+  out.points = cloud.size();
+  const PointCloud::Ptr finite = finitePoints(cloud, out.dropped);
+  if (finite->size() < 3) {
+    throw std::invalid_argument(role + " cloud has " + std::to_string(finite->size()) +
+                                " finite points (of " + std::to_string(cloud.size()) +
+                                "); at least 3 are needed");
+  }
   auto start = Clock::now();
+  out.resolution = meanNearestNeighbourDistance(finite, params.resolution_samples);
+  out.resolution_ms = millisecondsSince(start);
+
+  start = Clock::now();
   PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size);
   out.voxels = voxels->size();
-  stats.downsample_ms += millisecondsSince(start);
+  out.downsample_ms = millisecondsSince(start);
 
   start = Clock::now();
   const NormalCloud::Ptr normals =
@@ -57,7 +76,7 @@ DescribedKeypoints describe(const PointCloud::ConstPtr& finite, const FeaturePar
   // Points without a normal are left out of the FPFH neighbourhoods too: their pair features are undefined.
   voxels = subset(*voxels, with_normal);
   const NormalCloud::Ptr kept_normals = subset(*normals, with_normal);
-  stats.normals_ms += millisecondsSince(start);
+  out.normals_ms = millisecondsSince(start);
 
   start = Clock::now();
   const FpfhCloud::Ptr descriptors =
@@ -66,54 +85,38 @@ DescribedKeypoints describe(const PointCloud::ConstPtr& finite, const FeaturePar
   for (int i = 0; i < static_cast<int>(descriptors->size()); ++i) {
     if (isUsableDescriptor((*descriptors)[i])) usable.push_back(i);
   }
-  out.points = subset(*voxels, usable);
+  out.keypoints = subset(*voxels, usable);
   out.normals = subset(*kept_normals, usable);
   out.descriptors = subset(*descriptors, usable);
   out.no_feature = out.voxels - usable.size();
-  stats.features_ms += millisecondsSince(start);
+  out.features_ms = millisecondsSince(start);
   return out;
 }
 
-PointCloud::Ptr finiteOrThrow(const PointCloud& cloud, const char* role, std::size_t& dropped) {
-  PointCloud::Ptr finite = finitePoints(cloud, dropped);
-  if (finite->size() < 3) {
-    throw std::invalid_argument(std::string(role) + " cloud has " + std::to_string(finite->size()) +
-                                " finite points (of " + std::to_string(cloud.size()) +
-                                "); at least 3 are needed");
-  }
-  return finite;
-}
-
-}  // namespace
-
-FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
-                                              const FeatureParams& params) {
-  const auto problems = validateFeatureParams(params);
-  if (!problems.empty()) {
-    std::string message = "invalid feature parameters:";
-    for (const auto& p : problems) message += " " + p;
-    throw std::invalid_argument(message);
+FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const DescribedCloud& t,
+                                            const FeatureParams& params) {
+  throwIfInvalid(params);
+  if (!sameDescription(s.params, params) || !sameDescription(t.params, params)) {
+    throw std::invalid_argument(
+        "the clouds were described with other voxel_size or radius factors than these");
   }
   FeatureCorrespondences out;
   FrontEndStats& stats = out.stats;
-  stats.source_points = source.size();
-  stats.target_points = target.size();
-  const PointCloud::Ptr source_finite = finiteOrThrow(source, "source", stats.source_dropped);
-  const PointCloud::Ptr target_finite = finiteOrThrow(target, "target", stats.target_dropped);
-
-  auto start = Clock::now();
-  stats.resolution = 0.5 * (meanNearestNeighbourDistance(source_finite, params.resolution_samples) +
-                            meanNearestNeighbourDistance(target_finite, params.resolution_samples));
-  stats.resolution_ms = millisecondsSince(start);
-
-  const DescribedKeypoints s = describe(source_finite, params, stats);
-  const DescribedKeypoints t = describe(target_finite, params, stats);
+  stats.source_points = s.points;
+  stats.target_points = t.points;
+  stats.source_dropped = s.dropped;
+  stats.target_dropped = t.dropped;
   stats.source_keypoints = s.voxels;
   stats.target_keypoints = t.voxels;
   stats.source_no_feature = s.no_feature;
   stats.target_no_feature = t.no_feature;
+  stats.resolution = 0.5 * (s.resolution + t.resolution);
+  stats.resolution_ms = s.resolution_ms + t.resolution_ms;
+  stats.downsample_ms = s.downsample_ms + t.downsample_ms;
+  stats.normals_ms = s.normals_ms + t.normals_ms;
+  stats.features_ms = s.features_ms + t.features_ms;
 
-  start = Clock::now();
+  const auto start = Clock::now();
   MatchingStats matching;
   const std::vector<FeatureMatch> matches = matchFeatures(s.descriptors, t.descriptors, params, matching);
   stats.rejected_mutual = matching.rejected_mutual;
@@ -130,17 +133,23 @@ FeatureCorrespondences computeCorrespondences(const PointCloud& source, const Po
   out.target_indices.resize(matches.size());
   for (Eigen::Index k = 0; k < n; ++k) {
     const FeatureMatch& m = matches[k];
-    c.source_points.col(k) = (*s.points)[m.source].getVector3fMap().cast<double>();
-    c.target_points.col(k) = (*t.points)[m.target].getVector3fMap().cast<double>();
+    c.source_points.col(k) = (*s.keypoints)[m.source].getVector3fMap().cast<double>();
+    c.target_points.col(k) = (*t.keypoints)[m.target].getVector3fMap().cast<double>();
     c.source_normals.col(k) = (*s.normals)[m.source].getNormalVector3fMap().cast<double>();
     c.target_normals.col(k) = (*t.normals)[m.target].getNormalVector3fMap().cast<double>();
     out.source_indices[k] = m.source;
     out.target_indices[k] = m.target;
   }
-  out.source_keypoints = s.points;
-  out.target_keypoints = t.points;
+  out.source_keypoints = s.keypoints;
+  out.target_keypoints = t.keypoints;
   stats.matching_ms = millisecondsSince(start);
   return out;
+}
+
+FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
+                                              const FeatureParams& params) {
+  return matchDescribedClouds(describeCloud(source, params, "source"),
+                              describeCloud(target, params, "target"), params);
 }
 
 MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& feature_params,
@@ -151,8 +160,12 @@ MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& 
   return params;
 }
 
-CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
-                                       const FeatureParams& feature_params, const MacParams& mac_params) {
+namespace {
+
+// Front end (given as a callable that may throw) then the core; every failure becomes a failed result.
+template <typename FrontEnd>
+CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& feature_params,
+                                     const MacParams& mac_params) {
   CloudRegistrationResult result;
   MacResult& registration = result.registration;
   const auto fail = [&](RegistrationStatus status, const std::string& message) {
@@ -168,7 +181,7 @@ CloudRegistrationResult registerClouds(const PointCloud& source, const PointClou
     return fail(RegistrationStatus::kInvalidParameters, message);
   }
   try {
-    result.features = computeCorrespondences(source, target, feature_params);
+    result.features = front_end();
   } catch (const std::invalid_argument& e) {
     return fail(RegistrationStatus::kInvalidInput, e.what());
   } catch (const std::exception& e) {
@@ -178,6 +191,24 @@ CloudRegistrationResult registerClouds(const PointCloud& source, const PointClou
       result.features.correspondences,
       withResolutionUnits(mac_params, feature_params, result.features.stats.resolution));
   return result;
+}
+
+}  // namespace
+
+CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
+                                       const FeatureParams& feature_params, const MacParams& mac_params) {
+  return registerWith([&] { return computeCorrespondences(source, target, feature_params); }, feature_params,
+                      mac_params);
+}
+
+CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
+                                                 const FeatureParams& feature_params,
+                                                 const MacParams& mac_params) {
+  return registerWith(
+      [&] {
+        return matchDescribedClouds(describeCloud(source, feature_params, "source"), target, feature_params);
+      },
+      feature_params, mac_params);
 }
 
 }  // namespace mac_registration

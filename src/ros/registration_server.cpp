@@ -155,7 +155,7 @@ bool RegistrationServer::onRegister(Register::Request& request, Register::Respon
     target = latest_target_;
   }
   Outcome outcome =
-      target ? registerClouds(request.source, *target)
+      target ? registerClouds(request.source, target)
              : Outcome{invalidInput("the request's target is empty and no target was received on " +
                                     nh_.resolveName("target")),
                        nullptr,
@@ -186,7 +186,7 @@ void RegistrationServer::workerLoop() {
         outcome.msg.header = job->source->header;
         outcome.msg.child_frame_id = job->source->header.frame_id;
       } else {
-        outcome = registerClouds(*job->source, *job->target);
+        outcome = registerClouds(*job->source, job->target);
       }
       publish(outcome);
     } catch (const std::exception& e) {
@@ -196,21 +196,53 @@ void RegistrationServer::workerLoop() {
   }
 }
 
-RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs::PointCloud2& source,
-                                                               const sensor_msgs::PointCloud2& target) {
+std::shared_ptr<const DescribedCloud> RegistrationServer::describedTarget(
+    const sensor_msgs::PointCloud2ConstPtr& target, const FeatureParams& params, std::size_t& dropped) {
+  {
+    std::lock_guard<std::mutex> lock(target_cache_mutex_);
+    const auto& cached = target_cache_;
+    if (cached.message == target && cached.described &&
+        cached.described->params.voxel_size == params.voxel_size &&
+        cached.described->params.normal_radius_factor == params.normal_radius_factor &&
+        cached.described->params.feature_radius_factor == params.feature_radius_factor) {
+      dropped = cached.dropped;
+      return cached.described;
+    }
+  }
+  const CloudConversion cloud = toPointCloud(*target);
+  if (!cloud.error.empty()) throw std::invalid_argument("target cloud: " + cloud.error);
+  auto described = std::make_shared<DescribedCloud>(describeCloud(*cloud.cloud, params, "target"));
+  dropped = cloud.dropped_non_finite;
+  // Later registrations against the same target spend no time on it: the cached copy says so.
+  auto reused = std::make_shared<DescribedCloud>(*described);
+  reused->resolution_ms = reused->downsample_ms = reused->normals_ms = reused->features_ms = 0.0;
+  std::lock_guard<std::mutex> lock(target_cache_mutex_);
+  target_cache_ = {target, reused, dropped};
+  return described;
+}
+
+RegistrationServer::Outcome RegistrationServer::registerClouds(
+    const sensor_msgs::PointCloud2& source, const sensor_msgs::PointCloud2ConstPtr& target) {
   const ServerConfig cfg = config();
   Outcome outcome;
   const CloudConversion source_cloud = toPointCloud(source);
-  const CloudConversion target_cloud = toPointCloud(target);
-  if (!source_cloud.error.empty() || !target_cloud.error.empty()) {
-    outcome.msg = invalidInput(!source_cloud.error.empty() ? "source cloud: " + source_cloud.error
-                                                           : "target cloud: " + target_cloud.error);
+  std::size_t target_dropped = 0;
+  std::shared_ptr<const DescribedCloud> target_described;
+  if (!source_cloud.error.empty()) {
+    outcome.msg = invalidInput("source cloud: " + source_cloud.error);
   } else {
+    try {
+      target_described = describedTarget(target, cfg.features, target_dropped);
+    } catch (const std::invalid_argument& e) {
+      outcome.msg = invalidInput(e.what());
+    }
+  }
+  if (target_described) {
     const CloudRegistrationResult result =
-        mac_registration::registerClouds(*source_cloud.cloud, *target_cloud.cloud, cfg.features, cfg.mac);
+        registerCloudToDescribed(*source_cloud.cloud, *target_described, cfg.features, cfg.mac);
     fillFrontEndStats(result.features.stats, outcome.msg);
     fillResultMsg(result.registration, outcome.msg);
-    outcome.msg.dropped_points = source_cloud.dropped_non_finite + target_cloud.dropped_non_finite;
+    outcome.msg.dropped_points = source_cloud.dropped_non_finite + target_dropped;
     if (outcome.msg.dropped_points > 0) {
       outcome.msg.warnings.push_back("dropped " + std::to_string(outcome.msg.dropped_points) +
                                      " points with NaN/Inf coordinates");
@@ -221,7 +253,7 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
     outcome.T_target_source = result.registration.T_target_source;
   }
   outcome.msg.header.stamp = source.header.stamp;
-  outcome.msg.header.frame_id = target.header.frame_id;
+  outcome.msg.header.frame_id = target->header.frame_id;
   outcome.msg.child_frame_id = source.header.frame_id;
   return outcome;
 }

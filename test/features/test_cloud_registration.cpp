@@ -72,6 +72,28 @@ TEST(RealPair, RegisterCloudsRecoversTheGroundTruth) {
   EXPECT_LT(std::size_t(r.registration.inlier_indices.back()), r.features.correspondences.size());
 }
 
+// A target described once and matched against a source (the node's cached map) gives exactly what the
+// one-call path gives; describing with other radii than the matching's is refused.
+TEST(RealPair, ADescribedTargetMatchesLikeTheOneCallPath) {
+  const RealPair& pair = realPair();
+  const FeatureParams params;
+  const DescribedCloud target = describeCloud(*pair.target, params, "target");
+  const CloudRegistrationResult once = registerClouds(*pair.source, *pair.target, params, MacParams{});
+  const CloudRegistrationResult cached = registerCloudToDescribed(*pair.source, target, params, MacParams{});
+  ASSERT_TRUE(cached.registration.success) << cached.registration.message;
+  EXPECT_EQ(cached.features.correspondences.source_points, once.features.correspondences.source_points);
+  EXPECT_EQ(cached.features.correspondences.target_points, once.features.correspondences.target_points);
+  EXPECT_TRUE(cached.registration.T_target_source.matrix() == once.registration.T_target_source.matrix());
+
+  FeatureParams other = params;
+  other.voxel_size = 2.0 * params.voxel_size;
+  const CloudRegistrationResult refused = registerCloudToDescribed(*pair.source, target, other, MacParams{});
+  EXPECT_FALSE(refused.registration.success);
+  EXPECT_EQ(refused.registration.status, RegistrationStatus::kInvalidInput);
+  EXPECT_NE(refused.registration.message.find("voxel_size"), std::string::npos)
+      << refused.registration.message;
+}
+
 // NaN points and an organized layout (a depth image's invalid pixels) change nothing but the counters:
 // the voxel grid does not depend on where the finite points were stored.
 TEST(RealPair, NaNsAndOrganizedCloudsGiveTheSameCorrespondences) {

@@ -38,8 +38,34 @@ struct FeatureCorrespondences {
   std::vector<int> source_indices, target_indices;
 };
 
-// Clouds in (any frame each, may hold NaNs, may be organized), correspondences out. Throws
-// std::invalid_argument for invalid params or a cloud with fewer than 3 finite points.
+// One cloud through the front end up to its descriptors: what matching needs from it. Describing a cloud
+// costs most of the front end (normals, FPFH), so a target that stays the same (a map, a keyframe) is
+// described once and matched against every new source.
+struct DescribedCloud {
+  PointCloud::Ptr keypoints;  // voxel centroids that carry a normal and a usable descriptor
+  pcl::PointCloud<pcl::Normal>::Ptr normals;
+  pcl::PointCloud<pcl::FPFHSignature33>::Ptr descriptors;
+  FeatureParams params;        // what it was described with; matching refuses other parameters
+  std::size_t points = 0;      // given
+  std::size_t dropped = 0;     // NaN/Inf points removed
+  std::size_t voxels = 0;      // keypoints after the voxel grid
+  std::size_t no_feature = 0;  // of them, without a normal or a usable descriptor
+  double resolution = 0.0;     // [m] mean nearest-neighbour distance of the given cloud
+  double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0;
+};
+
+// Throws std::invalid_argument for invalid params or a cloud with fewer than 3 finite points; `role`
+// ("source", "target") names the cloud in that message.
+DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role);
+
+// Matches two described clouds. Throws std::invalid_argument when they were described with different
+// voxel sizes or radii.
+FeatureCorrespondences matchDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
+                                            const FeatureParams& params);
+
+// Clouds in (any frame each, may hold NaNs, may be organized), correspondences out: describeCloud on both,
+// then matchDescribedClouds. Throws std::invalid_argument for invalid params or a cloud with fewer than 3
+// finite points.
 FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
                                               const FeatureParams& params);
 
@@ -57,6 +83,11 @@ MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& 
 // registration with status kInvalidParameters, unusable clouds with kInvalidInput, each with a message.
 CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
                                        const FeatureParams& feature_params, const MacParams& mac_params);
+
+// The same with the target already described (see DescribedCloud): the source is described here.
+CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
+                                                 const FeatureParams& feature_params,
+                                                 const MacParams& mac_params);
 
 // Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). Throws std::runtime_error naming
 // the file when it is missing, unreadable or has no points.

@@ -64,7 +64,12 @@ class RegistrationServer {
   void onReconfigure(MacRegistrationConfig& config, std::uint32_t level);
 
   void workerLoop();
-  Outcome registerClouds(const sensor_msgs::PointCloud2& source, const sensor_msgs::PointCloud2& target);
+  Outcome registerClouds(const sensor_msgs::PointCloud2& source,
+                         const sensor_msgs::PointCloud2ConstPtr& target);
+  // The target's keypoints and descriptors, computed once per target message (a latched map or keyframe is
+  // described once, not for every scan). Throws std::invalid_argument for an unusable target.
+  std::shared_ptr<const DescribedCloud> describedTarget(const sensor_msgs::PointCloud2ConstPtr& target,
+                                                        const FeatureParams& params, std::size_t& dropped);
   Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences);
   void publish(Outcome& outcome);
   bool publishTf(const Outcome& outcome, std::string& problem);
@@ -90,6 +95,14 @@ class RegistrationServer {
 
   std::mutex target_mutex_;
   sensor_msgs::PointCloud2ConstPtr latest_target_;
+
+  struct TargetCache {
+    sensor_msgs::PointCloud2ConstPtr message;
+    std::shared_ptr<const DescribedCloud> described;
+    std::size_t dropped = 0;
+  };
+  std::mutex target_cache_mutex_;
+  TargetCache target_cache_;
 
   LatestSlot<Job> jobs_;
   std::thread worker_;
