@@ -3,21 +3,13 @@
 
 #include "mac_registration/core/text_io.hpp"
 #include "mac_registration/features/ransac_baseline.hpp"
-#include "synthetic.hpp"
+#include "../core/test_support.hpp"
 
 namespace mac_registration {
 namespace {
 
 SyntheticProblem roomScaleProblem(int n, double inlier_ratio, std::uint32_t seed) {
-  static const TriangleMesh mesh =
-      readAsciiPlyMesh(std::string(MAC_TEST_DATA_DIR) + "/teaser_bun_zipper_res3.ply");
-  SyntheticSpec spec;
-  spec.correspondences = n;
-  spec.inlier_ratio = inlier_ratio;
-  spec.noise_sigma = 0.005;
-  spec.object_size = 3.0;
-  spec.seed = seed;
-  return makeSyntheticProblem(mesh, spec);
+  return makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(n, inlier_ratio, seed));
 }
 
 TEST(RansacBaseline, RecoversTheTransformOfAnEasySet) {
