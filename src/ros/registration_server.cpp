@@ -154,14 +154,15 @@ bool RegistrationServer::onRegister(Register::Request& request, Register::Respon
     std::lock_guard<std::mutex> lock(target_mutex_);
     target = latest_target_;
   }
-  Outcome outcome =
-      target ? registerClouds(request.source, target)
-             : Outcome{invalidInput("the request's target is empty and no target was received on " +
-                                    nh_.resolveName("target")),
-                       nullptr,
-                       {},
-                       {},
-                       Eigen::Isometry3d::Identity()};
+  Outcome outcome;
+  if (target) {
+    outcome = registerClouds(request.source, target);
+  } else {
+    outcome.msg = invalidInput("the request's target is empty and no target was received on " +
+                               nh_.resolveName("target"));
+    outcome.msg.header = request.source.header;
+    outcome.msg.child_frame_id = request.source.header.frame_id;
+  }
   publish(outcome);
   response.result = outcome.msg;
   return true;  // failures travel in result.success / status / message
