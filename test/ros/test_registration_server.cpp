@@ -1,5 +1,7 @@
 // Interface test against a running nodelet (real roscore, nodelet manager and tf): services, topics, tf and
 // bad input. The launch file is test/ros/registration_server.test.
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <gtest/gtest.h>
 #include <mac_registration/Register.h>
 #include <mac_registration/RegisterCorrespondences.h>
@@ -193,6 +195,62 @@ TEST_F(RegistrationServerTest, MismatchedCorrespondencesFailWithAReason) {
   EXPECT_EQ(srv.response.result.status, "invalid input");
   // Identity, never garbage, on failure.
   EXPECT_TRUE(toEigen(srv.response.result.transform).isApprox(Eigen::Isometry3d::Identity()));
+}
+
+// dynamic_reconfigure changes thresholds live. The real set's inliers lie within 10 cm of the truth, not
+// within 1 mm: a 1 mm inlier threshold must find only a handful; requiring 300 inliers (it has ~226) must
+// fail; the defaults must bring the full result back.
+TEST_F(RegistrationServerTest, ReconfiguredThresholdsApplyToTheNextRegistration) {
+  const auto reconfigure = [](double inlier_threshold, int min_inliers) {
+    dynamic_reconfigure::Reconfigure srv;
+    dynamic_reconfigure::DoubleParameter tau;
+    tau.name = "inlier_threshold";
+    tau.value = inlier_threshold;
+    dynamic_reconfigure::IntParameter count;
+    count.name = "min_inliers";
+    count.value = min_inliers;
+    srv.request.config.doubles.push_back(tau);
+    srv.request.config.ints.push_back(count);
+    EXPECT_TRUE(ros::service::call("/mac_registration/set_parameters", srv));
+  };
+  const auto registerRealSet = [] {
+    mac_registration::RegisterCorrespondences srv;
+    srv.request.correspondences = redkitchenCorrespondences("reconfigure_t", "reconfigure_s");
+    EXPECT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+    return srv.response.result;
+  };
+  reconfigure(0.001, 3);
+  const auto strict = registerRealSet();
+  EXPECT_LT(strict.inliers, 20u) << strict.message;
+  reconfigure(0.1, 300);
+  const auto demanding = registerRealSet();
+  EXPECT_FALSE(demanding.success);
+  EXPECT_EQ(demanding.status, "too few inliers") << demanding.message;
+  reconfigure(0.1, 3);
+  const auto normal = registerRealSet();
+  EXPECT_TRUE(normal.success) << normal.message;
+  EXPECT_GT(normal.inliers, 150u);
+}
+
+// /diagnostics reports the registrations the node made.
+TEST_F(RegistrationServerTest, DiagnosticsCountRegistrations) {
+  mac_registration::RegisterCorrespondences srv;
+  srv.request.correspondences = redkitchenCorrespondences("diag_t", "diag_s");
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+  diagnostic_msgs::DiagnosticArrayConstPtr received;
+  ros::Subscriber sub = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArrayConstPtr& d) {
+        for (const auto& status : d->status) {
+          if (status.name.find("registration") != std::string::npos) received = d;
+        }
+      });
+  for (int i = 0; i < 50 && !received; ++i) ros::Duration(0.1).sleep();  // the updater publishes at 1 Hz
+  ASSERT_TRUE(received) << "no registration status on /diagnostics";
+  bool counted = false;
+  for (const auto& status : received->status) {
+    for (const auto& kv : status.values) counted |= kv.key == "registrations" && std::stoul(kv.value) > 0;
+  }
+  EXPECT_TRUE(counted);
 }
 
 }  // namespace
