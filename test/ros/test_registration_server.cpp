@@ -175,6 +175,23 @@ TEST_F(RegistrationServerTest, BadCloudsFailWithAReasonAndTheNodeStaysUp) {
   EXPECT_FALSE(no_xyz.success);
   EXPECT_NE(no_xyz.message.find("'x'"), std::string::npos) << no_xyz.message;
 
+  auto truncated = xyzCloud({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, "s");
+  truncated.data.resize(truncated.data.size() / 2);  // declares 4 points, carries 2
+  const auto short_data = callRegister(truncated, good);
+  EXPECT_FALSE(short_data.success);
+  EXPECT_NE(short_data.message.find("bytes"), std::string::npos) << short_data.message;
+
+  sensor_msgs::PointCloud2 doubles;
+  doubles.header.frame_id = "s";
+  sensor_msgs::PointCloud2Modifier double_modifier(doubles);
+  double_modifier.setPointCloud2Fields(3, "x", 1, sensor_msgs::PointField::FLOAT64, "y", 1,
+                                       sensor_msgs::PointField::FLOAT64, "z", 1,
+                                       sensor_msgs::PointField::FLOAT64);
+  double_modifier.resize(10);
+  const auto float64 = callRegister(doubles, good);
+  EXPECT_FALSE(float64.success);
+  EXPECT_NE(float64.message.find("float32"), std::string::npos) << float64.message;
+
   const auto two_points = callRegister(xyzCloud({{0, 0, 0}, {1, 0, 0}}, "s"), good);
   EXPECT_FALSE(two_points.success);
   EXPECT_FALSE(two_points.message.empty());
