@@ -1,9 +1,9 @@
 // The RANSAC baseline: right on easy sets, deterministic, explicit about failures.
 #include <gtest/gtest.h>
 
+#include "../core/test_support.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "mac_registration/features/ransac_baseline.hpp"
-#include "../core/test_support.hpp"
 
 namespace mac_registration {
 namespace {
