@@ -259,6 +259,16 @@ Options parseOptions(int argc, char** argv) {
 
 // The synthetic scene: the bunny scaled to a 3 m object, 5 mm noise by default; graph and evaluation
 // thresholds follow the noise unless --config/--set gave others.
+// Opens a CSV output before a long run, creating its folder (the documented commands write into build/),
+// and refuses loudly instead of dropping the results.
+std::ofstream openCsv(const std::string& path) {
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  if (!folder.empty()) std::filesystem::create_directories(folder);
+  std::ofstream csv(path);
+  if (!csv) throw std::runtime_error("cannot open '" + path + "' for writing");
+  return csv;
+}
+
 int runSynthetic(Options o, bool params_given) {
   const TriangleMesh mesh = readAsciiPlyMesh(o.mesh);
   if (!params_given) {
@@ -267,7 +277,7 @@ int runSynthetic(Options o, bool params_given) {
   }
   std::ofstream csv;
   if (!o.csv.empty()) {
-    csv.open(o.csv);
+    csv = openCsv(o.csv);
     csv << kHeader << "\n";
   }
   std::cout << "synthetic: bunny mesh scaled to 3 m, noise " << o.noise << " m, " << o.repeats
@@ -312,7 +322,7 @@ int runCorrespondences(const Options& o) {
   printTableHeader(std::cout);
   printRow(std::cout, "file", int(c.size()), 0.0, 0.0, r);
   if (!o.csv.empty()) {
-    std::ofstream csv(o.csv);
+    std::ofstream csv = openCsv(o.csv);
     csv << kHeader << "\n";
     writeCsvRow(csv, o.positional[0], int(c.size()), 0.0, 0.0, r);
   }
@@ -385,8 +395,7 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
   if (pairs.empty()) throw std::invalid_argument("no pairs to evaluate in " + source);
   std::ofstream csv;
   if (!o.csv.empty()) {
-    csv.open(o.csv);  // now rather than after a long run
-    if (!csv) throw std::runtime_error("cannot open '" + o.csv + "' for writing");
+    csv = openCsv(o.csv);  // now rather than after a long run
   }
   const bool baseline = o.dataset.baseline && benchmarkHasFeatures();
   std::cout << "dataset: " << source << ", " << pairs.size() << " pairs\n";

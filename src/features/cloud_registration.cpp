@@ -36,13 +36,13 @@ void throwIfInvalid(const FeatureParams& params) {
   throw std::invalid_argument(message);
 }
 
-// Descriptors depend on these; matching descriptors computed with different ones would be meaningless.
-bool sameDescription(const FeatureParams& a, const FeatureParams& b) {
-  return a.voxel_size == b.voxel_size && a.normal_radius_factor == b.normal_radius_factor &&
-         a.feature_radius_factor == b.feature_radius_factor;
-}
-
 }  // namespace
+
+bool describedWith(const DescribedCloud& cloud, const FeatureParams& params) {
+  return cloud.params.voxel_size == params.voxel_size &&
+         cloud.params.normal_radius_factor == params.normal_radius_factor &&
+         cloud.params.feature_radius_factor == params.feature_radius_factor;
+}
 
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role) {
   throwIfInvalid(params);
@@ -96,7 +96,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const DescribedCloud& t,
                                             const FeatureParams& params) {
   throwIfInvalid(params);
-  if (!sameDescription(s.params, params) || !sameDescription(t.params, params)) {
+  if (!describedWith(s, params) || !describedWith(t, params)) {
     throw std::invalid_argument(
         "the clouds were described with other voxel_size or radius factors than these");
   }

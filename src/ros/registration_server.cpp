@@ -202,10 +202,7 @@ std::shared_ptr<const DescribedCloud> RegistrationServer::describedTarget(
   {
     std::lock_guard<std::mutex> lock(target_cache_mutex_);
     const auto& cached = target_cache_;
-    if (cached.message == target && cached.described &&
-        cached.described->params.voxel_size == params.voxel_size &&
-        cached.described->params.normal_radius_factor == params.normal_radius_factor &&
-        cached.described->params.feature_radius_factor == params.feature_radius_factor) {
+    if (cached.message == target && cached.described && describedWith(*cached.described, params)) {
       dropped = cached.dropped;
       return cached.described;
     }

@@ -58,6 +58,9 @@ struct DescribedCloud {
 // ("source", "target") names the cloud in that message.
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role);
 
+// Whether `cloud` was described with the voxel size and radii of `params` (what its descriptors depend on).
+bool describedWith(const DescribedCloud& cloud, const FeatureParams& params);
+
 // Matches two described clouds. Throws std::invalid_argument when they were described with different
 // voxel sizes or radii.
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
