@@ -30,6 +30,13 @@ MacResult& fail(MacResult& result, RegistrationStatus status, const std::string&
   return result;
 }
 
+// True, with the result marked cancelled, when the caller asked to stop; checked between stages.
+bool stopped(const StopFlag* stop, MacResult& result, const char* before_stage) {
+  if (!stopRequested(stop)) return false;
+  fail(result, RegistrationStatus::kCancelled, std::string("cancelled before ") + before_stage);
+  return true;
+}
+
 // Bounds the cost of the SOG weights: a graph whose second-order pass would exceed the budget keeps only
 // its highest-degree nodes (inliers of a dense consensus have the highest degree), shrinking until it fits.
 CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, MacResult& result) {
@@ -142,7 +149,8 @@ BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const C
   return best;
 }
 
-void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacResult& result) {
+void runPipeline(const CorrespondenceSet& input, const MacParams& params, const StopFlag* stop,
+                 MacResult& result) {
   const auto problems = validateParams(params);
   if (!problems.empty()) {
     std::string message = "invalid parameters:";
@@ -170,6 +178,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacRes
     return;
   }
   const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
+  if (stopped(stop, result, "the compatibility graph")) return;
 
   auto start = Clock::now();
   FirstOrderGraph fog = buildFirstOrderGraph(c, params.graph, threads);
@@ -183,6 +192,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacRes
   }
   result.times.graph_ms = millisecondsSince(start);
 
+  if (stopped(stop, result, "the second-order graph")) return;
   start = Clock::now();
   CompatibilityGraph graph = std::move(fog.graph);
   if (params.graph.second_order) {
@@ -206,6 +216,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacRes
     return;
   }
 
+  if (stopped(stop, result, "the clique search")) return;
   const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, result);
   if (cliques.empty()) {
     fail(result, RegistrationStatus::kNoClique,
@@ -214,6 +225,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacRes
     return;
   }
 
+  if (stopped(stop, result, "the hypotheses")) return;
   const std::vector<double> weights = params.hypotheses.weighting == HypothesisWeighting::kEigenvector
                                           ? principalEigenvector(graph)
                                           : std::vector<double>{};
@@ -226,6 +238,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, MacRes
     return;
   }
 
+  if (stopped(stop, result, "the refinement")) return;
   start = Clock::now();
   RefinementOutcome refined{best.transform, best.score, 0, 0};
   if (params.refinement.enabled) {
@@ -275,15 +288,18 @@ const char* toString(RegistrationStatus status) {
       return "too few inliers";
     case RegistrationStatus::kInternalError:
       return "internal error";
+    case RegistrationStatus::kCancelled:
+      return "cancelled";
   }
   return "unknown";
 }
 
-MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params) {
+MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params,
+                                  const StopFlag* stop) {
   MacResult result;
   const auto start = Clock::now();
   try {
-    runPipeline(correspondences, params, result);
+    runPipeline(correspondences, params, stop, result);
   } catch (const std::bad_alloc&) {
     fail(result, RegistrationStatus::kInternalError,
          "out of memory; lower graph.max_edges or cliques.max_cliques");

@@ -165,7 +165,7 @@ namespace {
 // Front end (given as a callable that may throw) then the core; every failure becomes a failed result.
 template <typename FrontEnd>
 CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& feature_params,
-                                     const MacParams& mac_params) {
+                                     const MacParams& mac_params, const StopFlag* stop) {
   CloudRegistrationResult result;
   MacResult& registration = result.registration;
   const auto fail = [&](RegistrationStatus status, const std::string& message) {
@@ -187,28 +187,30 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
   } catch (const std::exception& e) {
     return fail(RegistrationStatus::kInternalError, std::string("front end failed: ") + e.what());
   }
+  if (stopRequested(stop)) return fail(RegistrationStatus::kCancelled, "cancelled after the front end");
   registration = registerCorrespondences(
       result.features.correspondences,
-      withResolutionUnits(mac_params, feature_params, result.features.stats.resolution));
+      withResolutionUnits(mac_params, feature_params, result.features.stats.resolution), stop);
   return result;
 }
 
 }  // namespace
 
 CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
-                                       const FeatureParams& feature_params, const MacParams& mac_params) {
+                                       const FeatureParams& feature_params, const MacParams& mac_params,
+                                       const StopFlag* stop) {
   return registerWith([&] { return computeCorrespondences(source, target, feature_params); }, feature_params,
-                      mac_params);
+                      mac_params, stop);
 }
 
 CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
                                                  const FeatureParams& feature_params,
-                                                 const MacParams& mac_params) {
+                                                 const MacParams& mac_params, const StopFlag* stop) {
   return registerWith(
       [&] {
         return matchDescribedClouds(describeCloud(source, feature_params, "source"), target, feature_params);
       },
-      feature_params, mac_params);
+      feature_params, mac_params, stop);
 }
 
 }  // namespace mac_registration

@@ -23,6 +23,12 @@ void expectFailure(const MacResult& result, RegistrationStatus status) {
   EXPECT_TRUE(result.T_target_source.isApprox(Eigen::Isometry3d::Identity()));
 }
 
+TEST(BadInput, RaisedStopFlagCancelsWithoutAPose) {
+  const StopFlag stop{true};
+  const MacResult result = registerCorrespondences(randomRigidSet(200, 3), test::roomScaleParams(), &stop);
+  expectFailure(result, RegistrationStatus::kCancelled);
+}
+
 TEST(BadInput, FewerThanThreeCorrespondences) {
   for (int n : {0, 1, 2}) {
     CorrespondenceSet c;

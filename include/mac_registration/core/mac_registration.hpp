@@ -3,6 +3,7 @@
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -10,7 +11,9 @@ namespace mac_registration {
 // clique search streamed into node-guided selection, one SVD hypothesis per selected clique, evaluation on
 // all correspondences, refinement. Never throws for bad input or parameters and never prints: every
 // outcome is in the result (success, status, message, warnings, counters, time per stage). The same input
-// and parameters give the same result whatever num_threads is.
-MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params);
+// and parameters give the same result whatever num_threads is. A raised `stop` ends the registration early
+// with status kCancelled.
+MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params,
+                                  const StopFlag* stop = nullptr);
 
 }  // namespace mac_registration

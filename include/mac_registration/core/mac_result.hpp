@@ -17,6 +17,7 @@ enum class RegistrationStatus {
   kNoValidHypothesis,      // every clique was degenerate or no hypothesis scored above 0
   kTooFewInliers,          // the best transform has fewer than min_inliers inliers
   kInternalError,          // igraph failed; message carries its error
+  kCancelled,              // the caller's StopFlag was raised before the registration finished
 };
 
 const char* toString(RegistrationStatus status);

@@ -10,6 +10,7 @@
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/feature_params.hpp"
 
 namespace mac_registration {
@@ -84,13 +85,15 @@ MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& 
 
 // Front end then the MAC core. Never throws: invalid feature parameters come back as a failed
 // registration with status kInvalidParameters, unusable clouds with kInvalidInput, each with a message.
+// A raised `stop` ends it early with status kCancelled.
 CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
-                                       const FeatureParams& feature_params, const MacParams& mac_params);
+                                       const FeatureParams& feature_params, const MacParams& mac_params,
+                                       const StopFlag* stop = nullptr);
 
 // The same with the target already described (see DescribedCloud): the source is described here.
 CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
                                                  const FeatureParams& feature_params,
-                                                 const MacParams& mac_params);
+                                                 const MacParams& mac_params, const StopFlag* stop = nullptr);
 
 // Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). Throws std::runtime_error naming
 // the file when it is missing, unreadable or has no points.
