@@ -14,8 +14,11 @@ class RegistrationNodelet : public nodelet::Nodelet {
     try {
       server_ = std::make_unique<RegistrationServer>(getNodeHandle(), getPrivateNodeHandle());
     } catch (const std::exception& e) {
-      // An exception here would take the whole manager down; refuse to start this nodelet only.
+      // nodelet::Loader catches what onInit throws and refuses the nodelet: the manager keeps running,
+      // its load_nodelet service answers false and `nodelet load` exits non-zero, so roslaunch sees the
+      // failure. The loader's own message leaves out the reason, hence this one.
       NODELET_FATAL_STREAM("mac_registration not started: " << e.what());
+      throw;
     }
   }
 
