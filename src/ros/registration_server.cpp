@@ -28,6 +28,10 @@ mac_registration::RegistrationResult invalidInput(const std::string& message) {
   return msg;
 }
 
+// Enough for a burst of inputs while the callback thread is busy elsewhere; beyond that roscpp would
+// drop without a trace, whereas the slot counts what it replaces.
+constexpr std::uint32_t kInputQueueSize = 5;
+
 }  // namespace
 
 RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -45,22 +49,20 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("correspondence_markers", 1);
 
   if (config_.node.target_mode == NodeParams::TargetMode::kSynchronized) {
-    sync_source_sub_ =
-        std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(nh_, "source", 1);
-    sync_target_sub_ =
-        std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(nh_, "target", 1);
+    sync_source_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(
+        nh_, "source", kInputQueueSize);
+    sync_target_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(
+        nh_, "target", kInputQueueSize);
     synchronizer_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(
         SyncPolicy(5), *sync_source_sub_, *sync_target_sub_);
     synchronizer_->setMaxIntervalDuration(ros::Duration(config_.node.sync_slop));
     synchronizer_->registerCallback(&RegistrationServer::onSynchronized, this);
   } else {
-    source_sub_ = nh_.subscribe("source", 1, &RegistrationServer::onSource, this);
-    target_sub_ = nh_.subscribe("target", 1, &RegistrationServer::onTarget, this);
+    source_sub_ = nh_.subscribe("source", kInputQueueSize, &RegistrationServer::onSource, this);
+    target_sub_ = nh_.subscribe("target", kInputQueueSize, &RegistrationServer::onTarget, this);
   }
-  correspondences_sub_ = nh_.subscribe("correspondences", 1, &RegistrationServer::onCorrespondences, this);
-  register_srv_ = private_nh_.advertiseService("register", &RegistrationServer::onRegister, this);
-  register_correspondences_srv_ = private_nh_.advertiseService(
-      "register_correspondences", &RegistrationServer::onRegisterCorrespondences, this);
+  correspondences_sub_ =
+      nh_.subscribe("correspondences", kInputQueueSize, &RegistrationServer::onCorrespondences, this);
 
   diagnostics_.setHardwareID("mac_registration");
   diagnostics_.add("registration", this, &RegistrationServer::reportDiagnostics);
@@ -82,15 +84,50 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   reconfigure_->setCallback(
       [this](MacRegistrationConfig& c, std::uint32_t level) { onReconfigure(c, level); });
 
+  // The services on their own queue: a long call must not hold up the topics, the timers or another call.
+  ros::NodeHandle service_nh(private_nh_);
+  service_nh.setCallbackQueue(&service_queue_);
+  register_srv_ = service_nh.advertiseService("register", &RegistrationServer::onRegister, this);
+  register_correspondences_srv_ = service_nh.advertiseService(
+      "register_correspondences", &RegistrationServer::onRegisterCorrespondences, this);
+
   worker_ = std::thread([this] { workerLoop(); });
+  shutdown_watch_ = std::thread([this] { watchForShutdown(); });
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(config_.node.service_threads, &service_queue_);
+  service_spinner_->start();
   ROS_INFO_STREAM("mac_registration: listening on " << nh_.resolveName("source") << ", "
                                                     << nh_.resolveName("target") << " and "
                                                     << nh_.resolveName("correspondences"));
 }
 
 RegistrationServer::~RegistrationServer() {
+  // Running registrations end at their next check of the flag, so that nothing below waits long.
+  stop_ = true;
   jobs_.close();
+  if (service_spinner_) service_spinner_->stop();  // returns once the calls in progress have returned
+  register_srv_.shutdown();
+  register_correspondences_srv_.shutdown();
+  {
+    std::lock_guard<std::mutex> lock(shutdown_mutex_);
+    destroying_ = true;
+  }
+  shutdown_cv_.notify_all();
+  if (shutdown_watch_.joinable()) shutdown_watch_.join();
   if (worker_.joinable()) worker_.join();
+}
+
+// roscpp's shutdown (SIGINT, rosnode kill) waits for the service calls in progress before the server is
+// destroyed, so the flag must go up as soon as it starts. roscpp has no hook for that: poll.
+void RegistrationServer::watchForShutdown() {
+  std::unique_lock<std::mutex> lock(shutdown_mutex_);
+  while (!destroying_) {
+    if (ros::isShuttingDown() || !ros::ok()) {
+      stop_ = true;
+      jobs_.close();
+      return;
+    }
+    shutdown_cv_.wait_for(lock, std::chrono::milliseconds(50));
+  }
 }
 
 ServerConfig RegistrationServer::config() const {
@@ -178,6 +215,7 @@ bool RegistrationServer::onRegisterCorrespondences(RegisterCorrespondences::Requ
 
 void RegistrationServer::workerLoop() {
   while (auto job = jobs_.take()) {
+    if (stopRequested(&stop_)) break;
     try {
       Outcome outcome;
       if (job->correspondences) {
@@ -237,7 +275,7 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(
   }
   if (target_described) {
     const CloudRegistrationResult result =
-        registerCloudToDescribed(*source_cloud.cloud, *target_described, cfg.features, cfg.mac);
+        registerCloudToDescribed(*source_cloud.cloud, *target_described, cfg.features, cfg.mac, &stop_);
     fillFrontEndStats(result.features.stats, outcome.msg);
     fillResultMsg(result.registration, outcome.msg);
     outcome.msg.dropped_points = source_cloud.dropped_non_finite + target_dropped;
@@ -262,7 +300,8 @@ RegistrationServer::Outcome RegistrationServer::registerCorrespondences(
   Outcome outcome;
   try {
     outcome.correspondences = toCorrespondences(correspondences);
-    const MacResult result = mac_registration::registerCorrespondences(outcome.correspondences, cfg.mac);
+    const MacResult result =
+        mac_registration::registerCorrespondences(outcome.correspondences, cfg.mac, &stop_);
     fillResultMsg(result, outcome.msg);
     outcome.inliers = result.inlier_indices;
     outcome.T_target_source = result.T_target_source;
@@ -315,6 +354,8 @@ bool RegistrationServer::publishTf(const Outcome& outcome, std::string& problem)
 }
 
 void RegistrationServer::publish(Outcome& outcome) {
+  // Shutting down: the caller still gets its (cancelled) result, the topics and tf no longer matter.
+  if (stopRequested(&stop_)) return;
   auto& msg = outcome.msg;
   const ServerConfig cfg = config();
   if (msg.success && !outcome.T_target_source.matrix().allFinite()) {

@@ -88,6 +88,10 @@ void loadNodeParams(const ros::NodeHandle& nh, NodeParams& p, std::vector<std::s
   if (!(p.tf_timeout >= 0.0)) problems.push_back("~tf_timeout must be >= 0 [s]");
   nh.param("max_marker_lines", p.max_marker_lines, p.max_marker_lines);
   if (p.max_marker_lines < 0) problems.push_back("~max_marker_lines must be >= 0");
+  nh.param("service_threads", p.service_threads, p.service_threads);
+  if (p.service_threads < 1 || p.service_threads > 64) {
+    problems.push_back("~service_threads = " + std::to_string(p.service_threads) + " must be in [1, 64]");
+  }
 }
 
 }  // namespace
@@ -108,6 +112,7 @@ std::string describeConfig(const ServerConfig& c) {
        << (c.node.target_mode == NodeParams::TargetMode::kLatest ? "latest" : "synchronized")
        << " publish_tf=" << (c.node.publish_tf ? "true" : "false")
        << " tf_mode=" << (c.node.tf_mode == NodeParams::TfMode::kTargetSource ? "target_source" : "map_odom")
+       << " service_threads=" << c.node.service_threads
        << "\n  features: voxel_size=" << c.features.voxel_size << " m, normal radius x"
        << c.features.normal_radius_factor << ", FPFH radius x" << c.features.feature_radius_factor
        << ", max_correspondences=" << c.features.max_correspondences

@@ -1,6 +1,8 @@
-// Starting, against a real nodelet manager and real node processes (test/ros/lifecycle.test): invalid
-// parameters refuse a nodelet (the manager lives on, `nodelet load` fails) and make the standalone node say
-// why and exit; the node logs.
+// Starting and stopping, against a real nodelet manager and real node processes (test/ros/lifecycle.test):
+// invalid parameters refuse a nodelet (the manager lives on, `nodelet load` fails) and make the standalone
+// node say why and exit; the node logs; unloading the nodelet or interrupting the node ends a long
+// registration instead of waiting for it.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <mac_registration/RegisterCorrespondences.h>
@@ -13,10 +15,16 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <fstream>
+#include <future>
+#include <map>
+#include <mutex>
+#include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mac_registration/core/text_io.hpp"
@@ -167,6 +175,215 @@ TEST(Lifecycle, TheNodeLogsItsConfigurationAndEachRegistration) {
   const std::string log = node.output();
   EXPECT_NE(log.find("effective configuration (/logging_node)"), std::string::npos) << log;
   EXPECT_NE(log.find("log_target <- log_source"), std::string::npos) << log;
+}
+
+// The parameters of a registration that runs for 20 s unless it is stopped: no bound on the clique search
+// but its time.
+void setLongRegistrationParams(const std::string& ns) {
+  ros::param::set(ns + "/cliques/time_limit", 20.0);
+  ros::param::set(ns + "/cliques/max_degeneracy", 0);
+  ros::param::set(ns + "/cliques/max_cliques", 1000000000);
+  ros::param::set(ns + "/cliques/max_pruning_rounds", 0);
+}
+
+// 8000 correspondences in a 10 m cube, half of them one rigid motion with 5 mm noise: a graph dense enough
+// for the clique search to use all of its time.
+mac_registration::Correspondences denseCorrespondences() {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> coordinate(-5.0, 5.0);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  CorrespondenceSet set;
+  const int n = 8000;
+  set.source_points.resize(3, n);
+  set.target_points.resize(3, n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d s(coordinate(random), coordinate(random), coordinate(random));
+    const Eigen::Vector3d t =
+        i % 2 == 0 ? Eigen::Vector3d(s + Eigen::Vector3d(1.0, noise(random), noise(random)))
+                   : Eigen::Vector3d(coordinate(random), coordinate(random), coordinate(random));
+    set.source_points.col(i) = s;
+    set.target_points.col(i) = t;
+  }
+  std_msgs::Header header;
+  header.frame_id = "long_target";
+  header.stamp = ros::Time::now();
+  return toCorrespondencesMsg(set, header, "long_source");
+}
+
+// The call runs in its own thread; the result says whether it came back and with what.
+struct PendingCall {
+  std::future<std::pair<bool, mac_registration::RegistrationResult>> result;
+};
+
+PendingCall callLongRegistration(const std::string& service) {
+  PendingCall call;
+  call.result = std::async(std::launch::async, [service] {
+    mac_registration::RegisterCorrespondences srv;
+    srv.request.correspondences = denseCorrespondences();
+    const bool answered = ros::service::call(service, srv);
+    return std::make_pair(answered, srv.response.result);
+  });
+  return call;
+}
+
+// Two matches, too few for a registration: a call or topic input that fails at once, before the igraph
+// part (which a long registration holds).
+mac_registration::Correspondences tinyCorrespondences(const std::string& source_frame) {
+  CorrespondenceSet set;
+  set.source_points = Eigen::Matrix3Xd::Random(3, 2);
+  set.target_points = set.source_points;
+  std_msgs::Header header;
+  header.frame_id = "tiny_target";
+  header.stamp = ros::Time::now();
+  return toCorrespondencesMsg(set, header, source_frame);
+}
+
+// The latest registration status the nodelet put on /diagnostics.
+class DiagnosticsWatch {
+ public:
+  explicit DiagnosticsWatch(ros::NodeHandle& nh)
+      : sub_(nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+            "/diagnostics", 10, [this](const diagnostic_msgs::DiagnosticArrayConstPtr& array) {
+              for (const auto& status : array->status) {
+                if (status.name.find("registration") == std::string::npos) continue;
+                std::lock_guard<std::mutex> lock(mutex_);
+                for (const auto& kv : status.values) values_[kv.key] = kv.value;
+                ++received_;
+              }
+            })) {}
+  std::size_t received() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return received_;
+  }
+  std::string value(const std::string& key) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = values_.find(key);
+    return it == values_.end() ? std::string() : it->second;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, std::string> values_;
+  std::size_t received_ = 0;
+  ros::Subscriber sub_;
+};
+
+// A long call runs on the service threads: another call, the topics and the diagnostics go on meanwhile.
+// Then the unload, which raises the stop flag, answers once the registration has stopped.
+TEST(Lifecycle, ALongCallHoldsUpNothingAndUnloadingStopsIt) {
+  ASSERT_TRUE(ros::service::waitForService(kManager + "/load_nodelet", ros::Duration(60.0)));
+  setLongRegistrationParams("/long");
+  ASSERT_TRUE(loadNodelet("/long"));
+  ASSERT_TRUE(ros::service::waitForService("/long/register_correspondences", ros::Duration(30.0)));
+  ros::NodeHandle nh;
+  mac_registration::RegistrationResultConstPtr topic_result;
+  std::mutex topic_mutex;
+  ros::Subscriber result_sub = nh.subscribe<mac_registration::RegistrationResult>(
+      "/long/result", 10, [&](const mac_registration::RegistrationResultConstPtr& r) {
+        std::lock_guard<std::mutex> lock(topic_mutex);
+        if (r->child_frame_id == "tiny_topic") topic_result = r;
+      });
+  ros::Publisher pub = nh.advertise<mac_registration::Correspondences>("/correspondences", 10);
+  DiagnosticsWatch diagnostics(nh);
+  const auto running = [](PendingCall& call) {
+    return call.result.wait_for(std::chrono::seconds(0)) == std::future_status::timeout;
+  };
+
+  auto call = callLongRegistration("/long/register_correspondences");
+  ros::WallDuration(3.0).sleep();  // well inside the clique search
+  ASSERT_TRUE(running(call)) << "the registration ended before the checks";
+
+  mac_registration::RegisterCorrespondences other;
+  other.request.correspondences = tinyCorrespondences("tiny_call");
+  ASSERT_TRUE(ros::service::call("/long/register_correspondences", other));
+  EXPECT_FALSE(other.response.result.success);
+  EXPECT_TRUE(running(call)) << "the second call was answered only after the first";
+
+  for (int i = 0; i < 50 && pub.getNumSubscribers() == 0; ++i) ros::WallDuration(0.1).sleep();
+  pub.publish(tinyCorrespondences("tiny_topic"));
+  const std::size_t diagnostics_before = diagnostics.received();
+  bool topic_answered = false;
+  for (int i = 0; i < 50 && !(topic_answered && diagnostics.received() > diagnostics_before); ++i) {
+    ros::WallDuration(0.1).sleep();
+    std::lock_guard<std::mutex> lock(topic_mutex);
+    topic_answered = topic_result != nullptr;
+  }
+  EXPECT_TRUE(topic_answered) << "no ~result for the topic input during the call";
+  EXPECT_GT(diagnostics.received(), diagnostics_before) << "no /diagnostics during the call";
+  EXPECT_TRUE(running(call)) << "the checks outlasted the registration: they prove nothing";
+
+  const ros::WallTime start = ros::WallTime::now();
+  nodelet::NodeletUnload unload;
+  unload.request.name = "/long";
+  EXPECT_TRUE(ros::service::call(kManager + "/unload_nodelet", unload) && unload.response.success);
+  const double unload_s = (ros::WallTime::now() - start).toSec();
+  ASSERT_EQ(call.result.wait_for(std::chrono::seconds(60)), std::future_status::ready);
+  const auto [answered, result] = call.result.get();
+  const double call_s = (ros::WallTime::now() - start).toSec();
+  RecordProperty("unload_seconds", std::to_string(unload_s));
+  std::printf("unload during a registration: %.2f s (the call returned after %.2f s: %s)\n", unload_s, call_s,
+              answered ? result.status.c_str() : "no answer");
+  if (answered) {
+    EXPECT_EQ(result.status, "cancelled") << result.message;
+  }
+  EXPECT_FALSE(isLoaded("/long"));  // and the manager still answers
+}
+
+// Inputs that arrive while the worker registers replace each other in its slot; each replaced one is
+// counted on /diagnostics (none vanishes uncounted in roscpp's queue).
+TEST(Lifecycle, InputsReplacedWhileTheWorkerIsBusyAreCounted) {
+  ASSERT_TRUE(ros::service::waitForService(kManager + "/load_nodelet", ros::Duration(60.0)));
+  setLongRegistrationParams("/busy");
+  ASSERT_TRUE(loadNodelet("/busy"));
+  ASSERT_TRUE(ros::service::waitForService("/busy/register_correspondences", ros::Duration(30.0)));
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<mac_registration::Correspondences>("/correspondences", 10);
+  DiagnosticsWatch diagnostics(nh);
+  for (int i = 0; i < 50 && pub.getNumSubscribers() == 0; ++i) ros::WallDuration(0.1).sleep();
+  ASSERT_GT(pub.getNumSubscribers(), 0u);
+
+  pub.publish(denseCorrespondences());
+  ros::WallDuration(2.0).sleep();  // the worker has taken it and is registering
+  const int replaced = 4;
+  for (int i = 0; i <= replaced; ++i) pub.publish(tinyCorrespondences("burst_" + std::to_string(i)));
+  bool counted = false;
+  for (int i = 0; i < 100 && !counted; ++i) {
+    ros::WallDuration(0.1).sleep();
+    counted = diagnostics.value("inputs dropped (worker busy)") == std::to_string(replaced);
+  }
+  EXPECT_TRUE(counted) << "inputs dropped (worker busy) = '"
+                       << diagnostics.value("inputs dropped (worker busy)") << "', expected " << replaced;
+
+  nodelet::NodeletUnload unload;
+  unload.request.name = "/busy";
+  EXPECT_TRUE(ros::service::call(kManager + "/unload_nodelet", unload) && unload.response.success);
+}
+
+// SIGINT (what roslaunch sends first): roscpp's shutdown raises the stop flag and the node exits.
+TEST(Lifecycle, InterruptingTheNodeStopsALongRegistration) {
+  NodeProcess node(
+      {"rosrun", "mac_registration", "registration_node", "__name:=long_node", "_cliques/time_limit:=20.0",
+       "_cliques/max_degeneracy:=0", "_cliques/max_cliques:=1000000000", "_cliques/max_pruning_rounds:=0"},
+      "/tmp/mac_registration_long_node.log");
+  ASSERT_TRUE(node.started());
+  ASSERT_TRUE(ros::service::waitForService("/long_node/register_correspondences", ros::Duration(60.0)));
+  auto call = callLongRegistration("/long_node/register_correspondences");
+  ros::WallDuration(3.0).sleep();
+  ASSERT_EQ(call.result.wait_for(std::chrono::seconds(0)), std::future_status::timeout)
+      << "the registration ended before the interrupt";
+  const ros::WallTime start = ros::WallTime::now();
+  node.interrupt();
+  ASSERT_TRUE(node.waitForExit(ros::WallDuration(60.0))) << node.output();
+  const double exit_s = (ros::WallTime::now() - start).toSec();
+  ASSERT_EQ(call.result.wait_for(std::chrono::seconds(60)), std::future_status::ready);
+  const auto [answered, result] = call.result.get();
+  RecordProperty("sigint_exit_seconds", std::to_string(exit_s));
+  std::printf("SIGINT during a registration: the node exited after %.2f s (the call: %s)\n", exit_s,
+              answered ? result.status.c_str() : "no answer");
+  EXPECT_EQ(node.exitStatus(), 0) << node.output();
+  if (answered) {
+    EXPECT_EQ(result.status, "cancelled") << result.message;
+  }
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
@@ -19,10 +20,12 @@
 #include <boost/thread/recursive_mutex.hpp>
 
 #include <atomic>
+#include <condition_variable>
 #include <memory>
 #include <mutex>
 #include <thread>
 
+#include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/ros/latest_slot.hpp"
 #include "mac_registration/ros/server_config.hpp"
 
@@ -31,11 +34,18 @@ namespace mac_registration {
 // Everything ROS of the package: inputs (source/target clouds, correspondences, two services), one worker
 // with a latest-only slot, outputs (~result, ~aligned, ~correspondence_markers, tf, /diagnostics),
 // parameters and dynamic_reconfigure. The nodelet and the node are thin shells around it.
+//
+// Threads: topic callbacks, timers and dynamic_reconfigure run on nh's queue and only hand work over; the
+// worker registers topic inputs; the services have their own queue and spinner (~service_threads), so a
+// long call neither delays the topics nor waits for another call. Every registration reads one StopFlag,
+// raised by the destructor and when roscpp shuts down, so that none outlives the server.
 class RegistrationServer {
  public:
   // Throws std::invalid_argument listing every invalid parameter.
   RegistrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh);
   ~RegistrationServer();
+  RegistrationServer(const RegistrationServer&) = delete;
+  RegistrationServer& operator=(const RegistrationServer&) = delete;
 
  private:
   struct Job {
@@ -73,6 +83,7 @@ class RegistrationServer {
   Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences);
   void publish(Outcome& outcome);
   bool publishTf(const Outcome& outcome, std::string& problem);
+  void watchForShutdown();
   void reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   ServerConfig config() const;
 
@@ -84,7 +95,6 @@ class RegistrationServer {
   std::unique_ptr<message_filters::Subscriber<sensor_msgs::PointCloud2>> sync_source_sub_, sync_target_sub_;
   std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> synchronizer_;
   ros::Publisher result_pub_, aligned_pub_, markers_pub_;
-  ros::ServiceServer register_srv_, register_correspondences_srv_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
@@ -104,12 +114,23 @@ class RegistrationServer {
   std::mutex target_cache_mutex_;
   TargetCache target_cache_;
 
-  LatestSlot<Job> jobs_;
-  std::thread worker_;
-
   std::mutex stats_mutex_;
   std::size_t registrations_ = 0, failures_ = 0;
   mac_registration::RegistrationResult last_result_;
+
+  StopFlag stop_{false};
+  LatestSlot<Job> jobs_;
+  std::thread worker_;
+
+  // Declared after everything the calls use, so that they are stopped before any of it goes.
+  ros::CallbackQueue service_queue_;
+  ros::ServiceServer register_srv_, register_correspondences_srv_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+
+  std::mutex shutdown_mutex_;
+  std::condition_variable shutdown_cv_;
+  bool destroying_ = false;
+  std::thread shutdown_watch_;
 };
 
 }  // namespace mac_registration

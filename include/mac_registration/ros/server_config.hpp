@@ -23,6 +23,7 @@ struct NodeParams {
   std::string odom_frame = "odom";  // map_odom mode: the frame whose parent becomes the target frame
   double tf_timeout = 0.1;          // [s] waiting for odom_frame <- source frame at the scan's stamp
   int max_marker_lines = 500;       // outlier lines drawn at most (inliers are all drawn)
+  int service_threads = 2;          // [count] threads answering ~register and ~register_correspondences
 };
 
 struct ServerConfig {
