@@ -3,6 +3,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <chrono>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -28,9 +29,25 @@ mac_registration::RegistrationResult invalidInput(const std::string& message) {
   return msg;
 }
 
+// A failure after the registration itself: the counters stay, the transform goes back to the identity.
+void markFailed(mac_registration::RegistrationResult& msg, const std::string& status,
+                const std::string& message) {
+  msg.success = false;
+  msg.status = status;
+  msg.message = message;
+  msg.transform = geometry_msgs::Transform();
+  msg.transform.rotation.w = 1.0;
+}
+
 // Enough for a burst of inputs while the callback thread is busy elsewhere; beyond that roscpp would
 // drop without a trace, whereas the slot counts what it replaces.
 constexpr std::uint32_t kInputQueueSize = 5;
+
+std::string stampText(const ros::Time& stamp) {
+  std::ostringstream text;
+  text << "t = " << stamp.sec << "." << std::setw(9) << std::setfill('0') << stamp.nsec << " s";
+  return text.str();
+}
 
 }  // namespace
 
@@ -63,6 +80,10 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   }
   correspondences_sub_ =
       nh_.subscribe("correspondences", kInputQueueSize, &RegistrationServer::onCorrespondences, this);
+  if (config_.node.publish_tf && config_.node.tf_mode == NodeParams::TfMode::kMapOdom) {
+    map_odom_ = std::make_unique<MapOdomBroadcaster>(nh_, config_.node.map_odom_rate,
+                                                     config_.node.transform_tolerance);
+  }
 
   diagnostics_.setHardwareID("mac_registration");
   diagnostics_.add("registration", this, &RegistrationServer::reportDiagnostics);
@@ -166,12 +187,12 @@ void RegistrationServer::onSource(const sensor_msgs::PointCloud2ConstPtr& source
     ROS_WARN_THROTTLE(5.0, "mac_registration: source cloud received but no target yet on %s",
                       nh_.resolveName("target").c_str());
   }
-  jobs_.put(Job{source, target, nullptr});
+  jobs_.put(Job{source, target, nullptr, ros::Time::now()});
 }
 
 void RegistrationServer::onSynchronized(const sensor_msgs::PointCloud2ConstPtr& source,
                                         const sensor_msgs::PointCloud2ConstPtr& target) {
-  jobs_.put(Job{source, target, nullptr});
+  jobs_.put(Job{source, target, nullptr, ros::Time::now()});
 }
 
 void RegistrationServer::onTarget(const sensor_msgs::PointCloud2ConstPtr& target) {
@@ -180,10 +201,11 @@ void RegistrationServer::onTarget(const sensor_msgs::PointCloud2ConstPtr& target
 }
 
 void RegistrationServer::onCorrespondences(const mac_registration::CorrespondencesConstPtr& correspondences) {
-  jobs_.put(Job{nullptr, nullptr, correspondences});
+  jobs_.put(Job{nullptr, nullptr, correspondences, ros::Time::now()});
 }
 
 bool RegistrationServer::onRegister(Register::Request& request, Register::Response& response) {
+  const ros::Time received = ros::Time::now();
   sensor_msgs::PointCloud2ConstPtr target;
   if (std::size_t(request.target.width) * request.target.height > 0) {
     target = boost::make_shared<sensor_msgs::PointCloud2>(request.target);
@@ -193,12 +215,10 @@ bool RegistrationServer::onRegister(Register::Request& request, Register::Respon
   }
   Outcome outcome;
   if (target) {
-    outcome = registerClouds(request.source, target);
+    outcome = registerClouds(request.source, target, received);
   } else {
-    outcome.msg = invalidInput("the request's target is empty and no target was received on " +
-                               nh_.resolveName("target"));
-    outcome.msg.header = request.source.header;
-    outcome.msg.child_frame_id = request.source.header.frame_id;
+    outcome = missingTarget(request.source, "the request's target is empty and no target was received on ",
+                            received);
   }
   publish(outcome);
   response.result = outcome.msg;
@@ -207,7 +227,7 @@ bool RegistrationServer::onRegister(Register::Request& request, Register::Respon
 
 bool RegistrationServer::onRegisterCorrespondences(RegisterCorrespondences::Request& request,
                                                    RegisterCorrespondences::Response& response) {
-  Outcome outcome = registerCorrespondences(request.correspondences);
+  Outcome outcome = registerCorrespondences(request.correspondences, ros::Time::now());
   publish(outcome);
   response.result = outcome.msg;
   return true;
@@ -219,19 +239,42 @@ void RegistrationServer::workerLoop() {
     try {
       Outcome outcome;
       if (job->correspondences) {
-        outcome = registerCorrespondences(*job->correspondences);
+        outcome = registerCorrespondences(*job->correspondences, job->received);
       } else if (!job->target) {
-        outcome.msg = invalidInput("no target cloud received yet on " + nh_.resolveName("target"));
-        outcome.msg.header = job->source->header;
-        outcome.msg.child_frame_id = job->source->header.frame_id;
+        outcome = missingTarget(*job->source, "no target cloud received yet on ", job->received);
       } else {
-        outcome = registerClouds(*job->source, job->target);
+        outcome = registerClouds(*job->source, job->target, job->received);
       }
       publish(outcome);
     } catch (const std::exception& e) {
       // Never let one bad message end the worker (or the nodelet manager with it).
       ROS_ERROR_STREAM("mac_registration: registration failed unexpectedly: " << e.what());
     }
+  }
+}
+
+RegistrationServer::Outcome RegistrationServer::missingTarget(const sensor_msgs::PointCloud2& source,
+                                                              const std::string& why,
+                                                              const ros::Time& received) {
+  Outcome outcome;
+  outcome.msg = invalidInput(why + nh_.resolveName("target"));
+  outcome.msg.header.frame_id = source.header.frame_id;
+  outcome.msg.child_frame_id = source.header.frame_id;
+  stampResult(source.header.stamp, received, outcome);
+  return outcome;
+}
+
+void RegistrationServer::stampResult(const ros::Time& input_stamp, const ros::Time& received,
+                                     Outcome& outcome) {
+  outcome.odometry_stamp = input_stamp;
+  outcome.msg.header.stamp = input_stamp;
+  if (input_stamp.isZero()) {
+    // On tf a zero stamp is older than every listener's cache (TF_OLD_DATA): use the arrival time.
+    outcome.msg.header.stamp = received;
+    outcome.msg.warnings.push_back(
+        "the input's header.stamp is zero: the result is stamped with its arrival time (" +
+        stampText(received) + ")" +
+        (config().node.tf_mode == NodeParams::TfMode::kMapOdom ? " and the latest odometry is used" : ""));
   }
 }
 
@@ -257,8 +300,9 @@ std::shared_ptr<const DescribedCloud> RegistrationServer::describedTarget(
   return described;
 }
 
-RegistrationServer::Outcome RegistrationServer::registerClouds(
-    const sensor_msgs::PointCloud2& source, const sensor_msgs::PointCloud2ConstPtr& target) {
+RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs::PointCloud2& source,
+                                                               const sensor_msgs::PointCloud2ConstPtr& target,
+                                                               const ros::Time& received) {
   const ServerConfig cfg = config();
   Outcome outcome;
   const CloudConversion source_cloud = toPointCloud(source);
@@ -288,14 +332,14 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(
     outcome.inliers = result.registration.inlier_indices;
     outcome.T_target_source = result.registration.T_target_source;
   }
-  outcome.msg.header.stamp = source.header.stamp;
   outcome.msg.header.frame_id = target->header.frame_id;
   outcome.msg.child_frame_id = source.header.frame_id;
+  stampResult(source.header.stamp, received, outcome);
   return outcome;
 }
 
 RegistrationServer::Outcome RegistrationServer::registerCorrespondences(
-    const mac_registration::Correspondences& correspondences) {
+    const mac_registration::Correspondences& correspondences, const ros::Time& received) {
   const ServerConfig cfg = config();
   Outcome outcome;
   try {
@@ -308,49 +352,59 @@ RegistrationServer::Outcome RegistrationServer::registerCorrespondences(
   } catch (const std::invalid_argument& e) {
     outcome.msg = invalidInput(std::string("correspondences: ") + e.what());
   }
-  outcome.msg.header = correspondences.header;
+  outcome.msg.header.frame_id = correspondences.header.frame_id;
   outcome.msg.child_frame_id = correspondences.source_frame;
+  stampResult(correspondences.header.stamp, received, outcome);
   return outcome;
 }
 
-bool RegistrationServer::publishTf(const Outcome& outcome, std::string& problem) {
-  const auto& msg = outcome.msg;
-  const NodeParams node = config().node;
+void RegistrationServer::publishTf(Outcome& outcome, const NodeParams& node) {
+  auto& msg = outcome.msg;
+  const auto skip = [&msg](const std::string& why) {
+    msg.warnings.push_back("tf not published: " + why);
+    ROS_WARN_STREAM_THROTTLE(5.0, "mac_registration: tf not published: " << why);
+  };
   if (msg.header.frame_id.empty() || msg.child_frame_id.empty()) {
-    problem = "tf not published: the target or source frame_id is empty";
-    return false;
+    return skip("the target or source frame_id is empty");
   }
   if (msg.header.frame_id == msg.child_frame_id) {
-    problem = "tf not published: source and target share the frame '" + msg.header.frame_id + "'";
-    return false;
+    return skip("source and target share the frame '" + msg.header.frame_id + "'");
   }
-  geometry_msgs::TransformStamped tf;
-  tf.header = msg.header;
   if (node.tf_mode == NodeParams::TfMode::kTargetSource) {
+    geometry_msgs::TransformStamped tf;
+    tf.header = msg.header;
     tf.child_frame_id = msg.child_frame_id;
     tf.transform = msg.transform;
-  } else {
-    // REP-105: the target frame becomes the parent of odom, keeping odom -> source continuous.
-    geometry_msgs::TransformStamped odom_source;
-    try {
-      odom_source = tf_buffer_.lookupTransform(node.odom_frame, msg.child_frame_id, msg.header.stamp,
-                                               ros::Duration(node.tf_timeout));
-    } catch (const tf2::TransformException& e) {
-      problem =
-          "tf not published: no transform " + node.odom_frame + " <- " + msg.child_frame_id + ": " + e.what();
-      return false;
-    }
-    const Eigen::Isometry3d T_target_odom =
-        outcome.T_target_source * tf2::transformToEigen(odom_source).inverse();
-    if (!T_target_odom.matrix().allFinite()) {
-      problem = "tf not published: the map -> odom transform is not finite";
-      return false;
-    }
-    tf.child_frame_id = node.odom_frame;
-    tf.transform = toTransformMsg(T_target_odom);
+    tf_broadcaster_.sendTransform(tf);
+    return;
   }
-  tf_broadcaster_.sendTransform(tf);
-  return true;
+  if (msg.header.frame_id == node.odom_frame) {
+    return skip("the target frame is the odom frame '" + node.odom_frame + "'");
+  }
+  // REP-105: the target frame becomes the parent of odom, keeping odom -> source continuous. Without the
+  // odometry at the scan's time there is no correction to give: that is a failure, not a warning.
+  geometry_msgs::TransformStamped odom_source;
+  try {
+    odom_source = tf_buffer_.lookupTransform(node.odom_frame, msg.child_frame_id, outcome.odometry_stamp,
+                                             ros::Duration(node.tf_timeout));
+  } catch (const tf2::TransformException& e) {
+    std::ostringstream why;
+    why << "map_odom mode: no transform " << node.odom_frame << " <- " << msg.child_frame_id << " at "
+        << (outcome.odometry_stamp.isZero() ? std::string("the latest time")
+                                            : stampText(outcome.odometry_stamp))
+        << " within tf_timeout = " << node.tf_timeout << " s (" << e.what() << "); the registration found "
+        << msg.inliers << " inliers, " << msg.header.frame_id << " -> " << node.odom_frame
+        << " keeps its previous correction";
+    return markFailed(msg, "missing odometry", why.str());
+  }
+  const Eigen::Isometry3d T_target_odom =
+      outcome.T_target_source * tf2::transformToEigen(odom_source).inverse();
+  if (!T_target_odom.matrix().allFinite()) {
+    return markFailed(
+        msg, toString(RegistrationStatus::kInternalError),
+        "map_odom mode: the " + msg.header.frame_id + " -> " + node.odom_frame + " transform is not finite");
+  }
+  map_odom_->setCorrection(msg.header.frame_id, node.odom_frame, T_target_odom);
 }
 
 void RegistrationServer::publish(Outcome& outcome) {
@@ -359,17 +413,9 @@ void RegistrationServer::publish(Outcome& outcome) {
   auto& msg = outcome.msg;
   const ServerConfig cfg = config();
   if (msg.success && !outcome.T_target_source.matrix().allFinite()) {
-    msg.success = false;
-    msg.status = toString(RegistrationStatus::kInternalError);
-    msg.message = "the transform is not finite";
+    markFailed(msg, toString(RegistrationStatus::kInternalError), "the transform is not finite");
   }
-  if (msg.success && cfg.node.publish_tf) {
-    std::string problem;
-    if (!publishTf(outcome, problem)) {
-      msg.warnings.push_back(problem);
-      ROS_WARN_STREAM_THROTTLE(5.0, "mac_registration: " << problem);
-    }
-  }
+  if (msg.success && cfg.node.publish_tf) publishTf(outcome, cfg.node);
   result_pub_.publish(msg);
   if (msg.success) {
     const Eigen::Vector3d t = outcome.T_target_source.translation();
@@ -382,7 +428,7 @@ void RegistrationServer::publish(Outcome& outcome) {
     ROS_WARN_STREAM_THROTTLE(1.0,
                              "mac_registration: registration failed (" << msg.status << "): " << msg.message);
   }
-  std_msgs::Header target_header = msg.header;
+  const std_msgs::Header& target_header = msg.header;
   if (msg.success && outcome.source_cloud && aligned_pub_.getNumSubscribers() > 0) {
     aligned_pub_.publish(toPointCloud2(*outcome.source_cloud, outcome.T_target_source, target_header));
   }

@@ -59,6 +59,12 @@ void loadAlgorithmSections(const ros::NodeHandle& nh, MacParams& params, Feature
   features.num_threads = threads;
 }
 
+std::string number(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
 void loadNodeParams(const ros::NodeHandle& nh, NodeParams& p, std::vector<std::string>& problems) {
   std::string target_mode = p.target_mode == NodeParams::TargetMode::kLatest ? "latest" : "synchronized";
   nh.param("target_mode", target_mode, target_mode);
@@ -86,6 +92,14 @@ void loadNodeParams(const ros::NodeHandle& nh, NodeParams& p, std::vector<std::s
   }
   nh.param("tf_timeout", p.tf_timeout, p.tf_timeout);
   if (!(p.tf_timeout >= 0.0)) problems.push_back("~tf_timeout must be >= 0 [s]");
+  nh.param("map_odom_rate", p.map_odom_rate, p.map_odom_rate);
+  if (!(p.map_odom_rate > 0.0 && p.map_odom_rate <= 1000.0)) {
+    problems.push_back("~map_odom_rate = " + number(p.map_odom_rate) + " must be in (0, 1000] [Hz]");
+  }
+  nh.param("transform_tolerance", p.transform_tolerance, p.transform_tolerance);
+  if (!(p.transform_tolerance >= 0.0 && p.transform_tolerance <= 10.0)) {
+    problems.push_back("~transform_tolerance = " + number(p.transform_tolerance) + " must be in [0, 10] [s]");
+  }
   nh.param("max_marker_lines", p.max_marker_lines, p.max_marker_lines);
   if (p.max_marker_lines < 0) problems.push_back("~max_marker_lines must be >= 0");
   nh.param("service_threads", p.service_threads, p.service_threads);
@@ -111,8 +125,12 @@ std::string describeConfig(const ServerConfig& c) {
   text << "target_mode="
        << (c.node.target_mode == NodeParams::TargetMode::kLatest ? "latest" : "synchronized")
        << " publish_tf=" << (c.node.publish_tf ? "true" : "false")
-       << " tf_mode=" << (c.node.tf_mode == NodeParams::TfMode::kTargetSource ? "target_source" : "map_odom")
-       << " service_threads=" << c.node.service_threads
+       << " tf_mode=" << (c.node.tf_mode == NodeParams::TfMode::kTargetSource ? "target_source" : "map_odom");
+  if (c.node.tf_mode == NodeParams::TfMode::kMapOdom) {
+    text << " (odom_frame=" << c.node.odom_frame << ", re-sent at " << c.node.map_odom_rate
+         << " Hz, stamped now + " << c.node.transform_tolerance << " s)";
+  }
+  text << " service_threads=" << c.node.service_threads
        << "\n  features: voxel_size=" << c.features.voxel_size << " m, normal radius x"
        << c.features.normal_radius_factor << ", FPFH radius x" << c.features.feature_radius_factor
        << ", max_correspondences=" << c.features.max_correspondences

@@ -117,6 +117,28 @@ TEST_F(RegistrationServerTest, CorrespondencesTopicPublishesResultAndTf) {
   EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(received->transform), 1e-6));
 }
 
+// A zero stamp would put the transform on tf at t = 0, older than any listener's cache: the node stamps the
+// result and its tf with the arrival time instead, and says so.
+TEST_F(RegistrationServerTest, AZeroStampIsReplacedByTheArrivalTime) {
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  const ros::Time before = ros::Time::now();
+  mac_registration::RegisterCorrespondences srv;
+  srv.request.correspondences = redkitchenCorrespondences("zero_stamp_t", "zero_stamp_s");
+  srv.request.correspondences.header.stamp = ros::Time(0);
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+  const auto& result = srv.response.result;
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_GE(result.header.stamp, before);
+  bool said = false;
+  for (const auto& w : result.warnings) said |= w.find("header.stamp is zero") != std::string::npos;
+  EXPECT_TRUE(said);
+  const auto tf =
+      buffer.lookupTransform("zero_stamp_t", "zero_stamp_s", result.header.stamp, ros::Duration(5.0));
+  EXPECT_EQ(tf.header.stamp, result.header.stamp);
+  EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(result.transform), 1e-6));
+}
+
 TEST_F(RegistrationServerTest, RegisterServiceAlignsARealScanPair) {
   const auto result = callRegister(redkitchenCloud("source_cloud_bin_4.pcd", "fragment_4"),
                                    redkitchenCloud("target_cloud_bin_0.pcd", "fragment_0"));

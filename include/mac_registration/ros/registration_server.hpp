@@ -27,6 +27,7 @@
 
 #include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/ros/latest_slot.hpp"
+#include "mac_registration/ros/map_odom_broadcaster.hpp"
 #include "mac_registration/ros/server_config.hpp"
 
 namespace mac_registration {
@@ -51,6 +52,7 @@ class RegistrationServer {
   struct Job {
     sensor_msgs::PointCloud2ConstPtr source, target;
     mac_registration::CorrespondencesConstPtr correspondences;
+    ros::Time received;  // stands in for a zero header.stamp
   };
   // A registration with what the visual outputs need.
   struct Outcome {
@@ -59,6 +61,8 @@ class RegistrationServer {
     CorrespondenceSet correspondences;
     std::vector<int> inliers;
     Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+    // When to look the odometry up (map_odom mode): the input's stamp; zero means the latest.
+    ros::Time odometry_stamp;
   };
   using SyncPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::PointCloud2, sensor_msgs::PointCloud2>;
@@ -75,14 +79,20 @@ class RegistrationServer {
 
   void workerLoop();
   Outcome registerClouds(const sensor_msgs::PointCloud2& source,
-                         const sensor_msgs::PointCloud2ConstPtr& target);
+                         const sensor_msgs::PointCloud2ConstPtr& target, const ros::Time& received);
   // The target's keypoints and descriptors, computed once per target message (a latched map or keyframe is
   // described once, not for every scan). Throws std::invalid_argument for an unusable target.
   std::shared_ptr<const DescribedCloud> describedTarget(const sensor_msgs::PointCloud2ConstPtr& target,
                                                         const FeatureParams& params, std::size_t& dropped);
-  Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences);
+  Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences,
+                                  const ros::Time& received);
+  Outcome missingTarget(const sensor_msgs::PointCloud2& source, const std::string& why,
+                        const ros::Time& received);
+  // The result's stamp is the input's, or `received` when the input's is zero (said in a warning).
+  void stampResult(const ros::Time& input_stamp, const ros::Time& received, Outcome& outcome);
   void publish(Outcome& outcome);
-  bool publishTf(const Outcome& outcome, std::string& problem);
+  // Sends the result on tf; in map_odom mode a missing odometry turns the outcome into a failure.
+  void publishTf(Outcome& outcome, const NodeParams& node);
   void watchForShutdown();
   void reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
   ServerConfig config() const;
@@ -98,6 +108,7 @@ class RegistrationServer {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  std::unique_ptr<MapOdomBroadcaster> map_odom_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
   std::unique_ptr<dynamic_reconfigure::Server<MacRegistrationConfig>> reconfigure_;

@@ -20,10 +20,12 @@ struct NodeParams {
   double sync_slop = 0.05;  // [s] largest stamp difference of a synchronized source/target pair
   bool publish_tf = true;
   TfMode tf_mode = TfMode::kTargetSource;
-  std::string odom_frame = "odom";  // map_odom mode: the frame whose parent becomes the target frame
-  double tf_timeout = 0.1;          // [s] waiting for odom_frame <- source frame at the scan's stamp
-  int max_marker_lines = 500;       // outlier lines drawn at most (inliers are all drawn)
-  int service_threads = 2;          // [count] threads answering ~register and ~register_correspondences
+  std::string odom_frame = "odom";   // map_odom mode: the frame whose parent becomes the target frame
+  double tf_timeout = 0.1;           // [s] waiting for odom_frame <- source frame at the scan's stamp
+  double map_odom_rate = 20.0;       // [Hz] map_odom mode: how often the latest correction is re-sent
+  double transform_tolerance = 0.1;  // [s] map_odom mode: how far ahead of now map -> odom is stamped
+  int max_marker_lines = 500;        // outlier lines drawn at most (inliers are all drawn)
+  int service_threads = 2;           // [count] threads answering ~register and ~register_correspondences
 };
 
 struct ServerConfig {
