@@ -43,6 +43,27 @@ void markFailed(mac_registration::RegistrationResult& msg, const std::string& st
 // drop without a trace, whereas the slot counts what it replaces.
 constexpr std::uint32_t kInputQueueSize = 5;
 
+// The dynamically reconfigurable fields of `config`.
+void fillReconfigurable(const ServerConfig& config, MacRegistrationConfig& c) {
+  c.t_cmp = config.mac.graph.t_cmp;
+  c.gaussian_sigma = config.mac.graph.gaussian_sigma;
+  c.quadratic_threshold = config.mac.graph.quadratic_threshold;
+  c.inlier_threshold = config.mac.evaluation.inlier_threshold;
+  c.min_inliers = static_cast<int>(config.mac.evaluation.min_inliers);
+  c.clique_time_limit = config.mac.cliques.time_limit;
+  c.voxel_size = config.features.voxel_size;
+}
+
+bool sameReconfigurable(const ServerConfig& a, const ServerConfig& b) {
+  MacRegistrationConfig ca, cb;
+  fillReconfigurable(a, ca);
+  fillReconfigurable(b, cb);
+  return ca.t_cmp == cb.t_cmp && ca.gaussian_sigma == cb.gaussian_sigma &&
+         ca.quadratic_threshold == cb.quadratic_threshold && ca.inlier_threshold == cb.inlier_threshold &&
+         ca.min_inliers == cb.min_inliers && ca.clique_time_limit == cb.clique_time_limit &&
+         ca.voxel_size == cb.voxel_size;
+}
+
 std::string stampText(const ros::Time& stamp) {
   std::ostringstream text;
   text << "t = " << stamp.sec << "." << std::setw(9) << std::setfill('0') << stamp.nsec << " s";
@@ -93,14 +114,8 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   // The reconfigure server starts from the loaded values, not from its own defaults.
   reconfigure_ =
       std::make_unique<dynamic_reconfigure::Server<MacRegistrationConfig>>(reconfigure_mutex_, private_nh_);
-  MacRegistrationConfig initial;
-  initial.t_cmp = config_.mac.graph.t_cmp;
-  initial.gaussian_sigma = config_.mac.graph.gaussian_sigma;
-  initial.quadratic_threshold = config_.mac.graph.quadratic_threshold;
-  initial.inlier_threshold = config_.mac.evaluation.inlier_threshold;
-  initial.min_inliers = static_cast<int>(config_.mac.evaluation.min_inliers);
-  initial.clique_time_limit = config_.mac.cliques.time_limit;
-  initial.voxel_size = config_.features.voxel_size;
+  MacRegistrationConfig initial = MacRegistrationConfig::__getDefault__();
+  fillReconfigurable(config_, initial);
   reconfigure_->updateConfig(initial);
   reconfigure_->setCallback(
       [this](MacRegistrationConfig& c, std::uint32_t level) { onReconfigure(c, level); });
@@ -157,21 +172,26 @@ ServerConfig RegistrationServer::config() const {
 }
 
 void RegistrationServer::onReconfigure(MacRegistrationConfig& c, std::uint32_t) {
-  ServerConfig next = config();
+  const ServerConfig current = config();
+  ServerConfig next = current;
   next.mac.graph.t_cmp = c.t_cmp;
   next.mac.graph.gaussian_sigma = c.gaussian_sigma;
   next.mac.graph.quadratic_threshold = c.quadratic_threshold;
   next.mac.evaluation.inlier_threshold = c.inlier_threshold;
-  next.mac.evaluation.min_inliers = static_cast<std::size_t>(c.min_inliers);
+  next.mac.evaluation.min_inliers = static_cast<std::size_t>(std::max(c.min_inliers, 0));  // .cfg min: 0
   next.mac.cliques.time_limit = c.clique_time_limit;
   next.features.voxel_size = c.voxel_size;
   auto problems = validateParams(next.mac);
   for (const auto& p : validateFeatureParams(next.features)) problems.push_back(p);
   if (!problems.empty()) {
     ROS_ERROR_STREAM(
-        "mac_registration: reconfiguration refused, keeping the previous values:" << joined(problems));
+        "mac_registration: reconfiguration refused, keeping the previous values (a request outside the "
+        "bounds of cfg/MacRegistration.cfg arrives clamped to them):"
+        << joined(problems));
+    fillReconfigurable(current, c);  // what dynamic_reconfigure reports must be what is in force
     return;
   }
+  if (sameReconfigurable(current, next)) return;  // e.g. the call that comes with setCallback
   std::lock_guard<std::mutex> lock(config_mutex_);
   config_ = next;
   ROS_INFO_STREAM("mac_registration: reconfigured: " << describeConfig(config_));

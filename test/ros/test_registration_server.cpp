@@ -271,6 +271,48 @@ TEST_F(RegistrationServerTest, ReconfiguredThresholdsApplyToTheNextRegistration)
   EXPECT_GT(normal.inliers, 150u);
 }
 
+// Out-of-range values are refused, not clamped into range: dynamic_reconfigure's answer (what rqt and
+// dynparam show) keeps the values in force, and so do the registrations.
+TEST_F(RegistrationServerTest, OutOfRangeReconfigurationsAreRefusedNotClamped) {
+  const auto reconfigure = [](const std::string& name, double value, bool integer) {
+    dynamic_reconfigure::Reconfigure srv;
+    if (integer) {
+      dynamic_reconfigure::IntParameter p;
+      p.name = name;
+      p.value = static_cast<int>(value);
+      srv.request.config.ints.push_back(p);
+    } else {
+      dynamic_reconfigure::DoubleParameter p;
+      p.name = name;
+      p.value = value;
+      srv.request.config.doubles.push_back(p);
+    }
+    EXPECT_TRUE(ros::service::call("/mac_registration/set_parameters", srv));
+    return srv.response.config;
+  };
+  const auto doubleValue = [](const dynamic_reconfigure::Config& config, const std::string& name) {
+    for (const auto& p : config.doubles) {
+      if (p.name == name) return p.value;
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  const auto intValue = [](const dynamic_reconfigure::Config& config, const std::string& name) {
+    for (const auto& p : config.ints) {
+      if (p.name == name) return p.value;
+    }
+    return -1;
+  };
+  EXPECT_DOUBLE_EQ(doubleValue(reconfigure("t_cmp", 1.5, false), "t_cmp"), 0.99);
+  EXPECT_DOUBLE_EQ(doubleValue(reconfigure("inlier_threshold", -0.2, false), "inlier_threshold"), 0.1);
+  EXPECT_EQ(intValue(reconfigure("min_inliers", 1, true), "min_inliers"), 3);
+
+  mac_registration::RegisterCorrespondences srv;
+  srv.request.correspondences = redkitchenCorrespondences("refused_t", "refused_s");
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
+  EXPECT_TRUE(srv.response.result.success) << srv.response.result.message;
+  EXPECT_GT(srv.response.result.inliers, 150u);
+}
+
 // /diagnostics reports the registrations the node made.
 TEST_F(RegistrationServerTest, DiagnosticsCountRegistrations) {
   mac_registration::RegisterCorrespondences srv;
