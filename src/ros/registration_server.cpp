@@ -453,7 +453,7 @@ void RegistrationServer::publish(Outcome& outcome) {
     aligned_pub_.publish(toPointCloud2(*outcome.source_cloud, outcome.T_target_source, target_header));
   }
   if (msg.success && markers_pub_.getNumSubscribers() > 0 && outcome.correspondences.size() > 0) {
-    const double width = std::max(0.002, 0.2 * cfg.features.voxel_size);
+    const double width = std::max(0.005, 0.2 * cfg.features.voxel_size);  // [m]
     markers_pub_.publish(correspondenceMarkers(outcome.correspondences, outcome.inliers,
                                                outcome.T_target_source, target_header, width,
                                                cfg.node.max_marker_lines));

@@ -35,7 +35,8 @@ visualization_msgs::MarkerArray correspondenceMarkers(const CorrespondenceSet& c
   std::vector<char> is_inlier(c.size(), 0);
   for (int i : inliers) is_inlier[i] = 1;
   visualization_msgs::Marker inlier_lines = lineList(header, "inliers", line_width, 0.1f, 0.9f, 0.2f);
-  visualization_msgs::Marker outlier_lines = lineList(header, "outliers", line_width * 0.5, 0.9f, 0.2f, 0.1f);
+  // As wide as the inliers: thinner red lines vanish at the distances a whole scan is looked at from.
+  visualization_msgs::Marker outlier_lines = lineList(header, "outliers", line_width, 0.9f, 0.2f, 0.1f);
   const std::size_t outliers = c.size() - inliers.size();
   const std::size_t stride =
       max_outlier_lines > 0 ? std::max<std::size_t>(1, outliers / std::size_t(max_outlier_lines) + 1) : 0;

@@ -10,8 +10,8 @@
 
 namespace mac_registration {
 
-// Two line lists in the target frame: inlier correspondences (green) and outliers (red, at most
-// max_outlier_lines, evenly sampled), each line from T * source point to its target point.
+// Two line lists in the target frame, both line_width [m] wide: inlier correspondences (green) and outliers
+// (red, at most max_outlier_lines, evenly sampled), each line from T * source point to its target point.
 visualization_msgs::MarkerArray correspondenceMarkers(const CorrespondenceSet& correspondences,
                                                       const std::vector<int>& inliers,
                                                       const Eigen::Isometry3d& T_target_source,
