@@ -18,6 +18,9 @@ DEBIAN_PACKAGES=(
   libtf2-sensor-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libdiagnostic-updater-dev librostest-dev python3-rostest python3-rosbag python3-roslaunch rosbash tf2-tools
   python3-sensor-msgs python3-geometry-msgs python3-std-srvs libvisualization-msgs-dev
+  # for the shell tools on the node's outputs: rostopic echo /diagnostics and ~correspondence_markers,
+  # rosservice call MANAGER/list, rosrun tf2_tools echo.py
+  python3-diagnostic-msgs python3-visualization-msgs python3-nodelet python3-numpy
 )
 
 install_dependencies() {
