@@ -111,8 +111,10 @@ std::string coordinateBoundProblem(const pcl::PointXYZ& point, std::size_t index
 // The same for the first such point of `cloud`.
 std::string coordinateBoundProblem(const PointCloud& cloud);
 
-// Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). Throws std::runtime_error naming
-// the file when it is missing, unreadable or has no points.
+// Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). The header of a .pcd / .ply is
+// checked before PCL reads it (known keywords only, consistent field lists and counts, the declared points
+// present in the file), and the coordinates against kMaxAbsCoordinate. Throws std::runtime_error naming the
+// file and the reason when it is missing, malformed, unreadable or has no points.
 PointCloud::Ptr loadCloud(const std::string& path);
 
 }  // namespace mac_registration
