@@ -1,4 +1,5 @@
 #include <cmath>
+#include <sstream>
 
 #include "mac_registration/features/front_end_stages.hpp"
 
@@ -17,6 +18,31 @@ PointCloud::Ptr finitePoints(const PointCloud& cloud, std::size_t& dropped) {
   finite->is_dense = true;
   dropped = cloud.size() - finite->size();
   return finite;
+}
+
+std::string coordinateBoundProblem(const pcl::PointXYZ& point, std::size_t index) {
+  const float coordinates[3] = {point.x, point.y, point.z};
+  for (int axis = 0; axis < 3; ++axis) {
+    // NaN and Inf are dropped and counted by finitePoints, not refused.
+    if (std::isfinite(coordinates[axis]) && std::abs(coordinates[axis]) > kMaxAbsCoordinate) {
+      std::ostringstream reason;
+      reason << "point " << index << " has "
+             << "xyz"[axis] << " = " << coordinates[axis] << " m, beyond the front end's bound of +-"
+             << kMaxAbsCoordinate
+             << " m (past it float32 coordinates are more than 6.25 cm apart, too coarse for a voxel grid: "
+                "a misdecoded cloud, or global coordinates to shift to a local origin?)";
+      return reason.str();
+    }
+  }
+  return "";
+}
+
+std::string coordinateBoundProblem(const PointCloud& cloud) {
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    std::string problem = coordinateBoundProblem(cloud[i], i);
+    if (!problem.empty()) return problem;
+  }
+  return "";
 }
 
 }  // namespace mac_registration

@@ -1,8 +1,11 @@
 #include "mac_registration/features/cloud_registration.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +29,24 @@ typename pcl::PointCloud<Point>::Ptr subset(const pcl::PointCloud<Point>& cloud,
   kept->reserve(indices.size());
   for (const int i : indices) kept->push_back(cloud[i]);
   return kept;
+}
+
+// Refuses a finite cloud the voxel grid and the kd-trees cannot work on: coordinates beyond
+// kMaxAbsCoordinate, or so far from the origin that float32 spaces them more than a quarter voxel apart
+// (every voxel would hold a few quantized values, and normals and FPFH would describe that staircase).
+void throwIfOutOfRange(const PointCloud& finite, double voxel_size, const std::string& role) {
+  const std::string bound = coordinateBoundProblem(finite);
+  if (!bound.empty()) throw std::invalid_argument(role + " cloud: " + bound);
+  float largest = 0.0f;
+  for (const auto& p : finite) largest = std::max({largest, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const double spacing = double(std::nextafter(largest, std::numeric_limits<float>::infinity())) - largest;
+  if (spacing > 0.25 * voxel_size) {
+    std::ostringstream reason;
+    reason << role << " cloud: its coordinates reach " << largest << " m, where float32 values are "
+           << spacing << " m apart, more than a quarter of the voxel size (" << voxel_size
+           << " m): shift the cloud to a local origin or raise features.voxel_size";
+    throw std::invalid_argument(reason.str());
+  }
 }
 
 void throwIfInvalid(const FeatureParams& params) {
@@ -55,6 +76,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
                                 " finite points (of " + std::to_string(cloud.size()) +
                                 "); at least 3 are needed");
   }
+  throwIfOutOfRange(*finite, params.voxel_size, role);
   auto start = Clock::now();
   out.resolution = meanNearestNeighbourDistance(finite, params.resolution_samples);
   out.resolution_ms = millisecondsSince(start);

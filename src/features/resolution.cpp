@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "mac_registration/features/front_end_stages.hpp"
@@ -11,6 +13,8 @@ namespace mac_registration {
 double meanNearestNeighbourDistance(const PointCloud::ConstPtr& cloud, std::size_t max_queries) {
   const std::size_t n = cloud->size();
   if (n < 2 || max_queries == 0) return 0.0;
+  const std::string bound = coordinateBoundProblem(*cloud);
+  if (!bound.empty()) throw std::invalid_argument("cannot build a kd-tree: " + bound);
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
   tree.setInputCloud(cloud);
   // An even stride rather than random picks: the same cloud always gives the same resolution.

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -16,6 +17,21 @@ namespace {
 // input unfiltered with a warning; a front end must not silently skip its downsampling.)
 constexpr int kBitsPerAxis = 21;
 constexpr std::int64_t kVoxelsPerAxis = std::int64_t(1) << kBitsPerAxis;
+// A voxel index is computed in double and cast only within +-2^52, where doubles still hold every integer:
+// far inside int64, so neither the cast nor the difference of two indices can overflow, whatever the input.
+constexpr double kLargestCellIndex = 4503599627370496.0;  // 2^52
+
+std::int64_t cellIndex(double coordinate, double inverse_voxel_size, double voxel_size) {
+  const double cell = std::floor(coordinate * inverse_voxel_size);
+  // Also refuses NaN and the Inf of an overflowing product.
+  if (!(std::abs(cell) <= kLargestCellIndex)) {
+    std::ostringstream reason;
+    reason << "a coordinate of " << coordinate << " m lies more than 2^52 voxels of " << voxel_size
+           << " m from the origin";
+    throw std::invalid_argument(reason.str());
+  }
+  return static_cast<std::int64_t>(cell);
+}
 
 }  // namespace
 
@@ -31,7 +47,7 @@ PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size) {
     const auto& p = cloud.points[i];
     const double coordinates[3] = {p.x, p.y, p.z};
     for (int axis = 0; axis < 3; ++axis) {
-      const std::int64_t cell = static_cast<std::int64_t>(std::floor(coordinates[axis] * inverse));
+      const std::int64_t cell = cellIndex(coordinates[axis], inverse, voxel_size);
       cells[3 * i + axis] = cell;
       low[axis] = std::min(low[axis], cell);
       high[axis] = std::max(high[axis], cell);

@@ -3,69 +3,121 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 
 namespace mac_registration {
 namespace {
 
-// Checks that x, y, z are float32 fields inside each point and the data is as long as declared; fills
-// their byte offsets.
-std::string checkXyzLayout(const sensor_msgs::PointCloud2& msg, std::uint32_t (&offsets)[3]) {
-  int axis = 0;
-  for (const char* name : {"x", "y", "z"}) {
-    const sensor_msgs::PointField* field = nullptr;
-    for (const auto& f : msg.fields) {
-      if (f.name == name) field = &f;
-    }
-    if (!field) return std::string("no '") + name + "' field (fields must include float32 x, y, z)";
-    if (field->datatype != sensor_msgs::PointField::FLOAT32) {
-      return std::string("field '") + name + "' is not float32 (datatype " + std::to_string(field->datatype) +
-             ")";
-    }
-    if (field->offset + 4 > msg.point_step)
-      return std::string("field '") + name + "' lies outside point_step";
-    offsets[axis++] = field->offset;
+// Where x, y and z lie in each point, and whether their bytes must be swapped to host order.
+struct XyzLayout {
+  std::uint32_t offsets[3] = {0, 0, 0};
+  bool swap_bytes = false;
+};
+
+bool hostIsBigEndian() {
+  const std::uint16_t probe = 1;
+  std::uint8_t first_byte;
+  std::memcpy(&first_byte, &probe, 1);
+  return first_byte == 0;
+}
+
+// The single float32 field `name` within point_step, or why there is none. All arithmetic on the
+// message's numbers is done in 64 bits: an offset near 2^32 must not wrap around the check.
+std::string findFloatField(const sensor_msgs::PointCloud2& msg, const std::string& name,
+                           std::uint32_t& offset) {
+  const sensor_msgs::PointField* field = nullptr;
+  int matches = 0;
+  for (const auto& f : msg.fields) {
+    if (f.name == name) field = &f, ++matches;
   }
-  if (std::size_t(msg.point_step) * msg.width > msg.row_step)
-    return "row_step is smaller than point_step x width";
-  if (std::size_t(msg.row_step) * msg.height > msg.data.size()) {
-    return "data holds " + std::to_string(msg.data.size()) +
-           " bytes, fewer than row_step x height = " + std::to_string(std::size_t(msg.row_step) * msg.height);
+  if (matches == 0) return "no '" + name + "' field (fields must include float32 x, y, z)";
+  if (matches > 1) return std::to_string(matches) + " fields named '" + name + "' (which one is meant?)";
+  if (field->datatype != sensor_msgs::PointField::FLOAT32) {
+    return "field '" + name + "' is not float32 (datatype " + std::to_string(field->datatype) + ")";
   }
+  if (std::uint64_t(field->offset) + sizeof(float) > msg.point_step) {
+    return "field '" + name + "' at offset " + std::to_string(field->offset) + " lies outside point_step " +
+           std::to_string(msg.point_step);
+  }
+  offset = field->offset;
   return "";
+}
+
+// Checks that x, y, z are distinct float32 fields inside each point, each row holds its points and the
+// data is as long as declared; fills their byte offsets.
+std::string checkXyzLayout(const sensor_msgs::PointCloud2& msg, XyzLayout& layout) {
+  if (msg.point_step == 0) return "point_step is 0";
+  const char* names[3] = {"x", "y", "z"};
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::string problem = findFloatField(msg, names[axis], layout.offsets[axis]);
+    if (!problem.empty()) return problem;
+    for (int other = 0; other < axis; ++other) {
+      const std::uint32_t a = layout.offsets[other], b = layout.offsets[axis];
+      if ((a > b ? a - b : b - a) < sizeof(float))
+        return std::string("fields '") + names[other] + "' and '" + names[axis] + "' overlap";
+    }
+  }
+  const std::uint64_t row_bytes = std::uint64_t(msg.point_step) * msg.width;
+  if (row_bytes > msg.row_step) {
+    return "row_step " + std::to_string(msg.row_step) +
+           " is smaller than point_step x width = " + std::to_string(row_bytes);
+  }
+  const std::uint64_t data_bytes = std::uint64_t(msg.row_step) * msg.height;
+  if (data_bytes > msg.data.size()) {
+    return "data holds " + std::to_string(msg.data.size()) +
+           " bytes, fewer than row_step x height = " + std::to_string(data_bytes);
+  }
+  layout.swap_bytes = bool(msg.is_bigendian) != hostIsBigEndian();
+  return "";
+}
+
+float readFloat(const std::uint8_t* bytes, bool swap_bytes) {
+  std::uint32_t word;
+  std::memcpy(&word, bytes, sizeof word);
+  if (swap_bytes) word = __builtin_bswap32(word);
+  float value;
+  std::memcpy(&value, &word, sizeof value);
+  return value;
 }
 
 }  // namespace
 
 CloudConversion toPointCloud(const sensor_msgs::PointCloud2& msg) {
   CloudConversion out;
-  if (std::size_t(msg.width) * msg.height == 0) {
+  if (std::uint64_t(msg.width) * msg.height == 0) {
     out.error = "empty cloud (width x height = 0)";
     return out;
   }
-  std::uint32_t offsets[3];
-  out.error = checkXyzLayout(msg, offsets);
+  XyzLayout layout;
+  out.error = checkXyzLayout(msg, layout);
   if (!out.error.empty()) return out;
-  out.cloud.reset(new PointCloud);
-  out.cloud->reserve(std::size_t(msg.width) * msg.height);
+  auto cloud = pcl::make_shared<PointCloud>();
+  // Bounded by the data: every point takes at least 4 of its bytes (checked above).
+  cloud->reserve(std::size_t(msg.width) * msg.height);
   // Rows advance by row_step, so organized clouds and padded layouts are read correctly.
   for (std::uint32_t row = 0; row < msg.height; ++row) {
     const std::uint8_t* base = msg.data.data() + std::size_t(row) * msg.row_step;
     for (std::uint32_t col = 0; col < msg.width; ++col) {
       const std::uint8_t* point = base + std::size_t(col) * msg.point_step;
-      float xyz[3];
-      for (int a = 0; a < 3; ++a) std::memcpy(&xyz[a], point + offsets[a], sizeof(float));
-      if (std::isfinite(xyz[0]) && std::isfinite(xyz[1]) && std::isfinite(xyz[2])) {
-        out.cloud->push_back(pcl::PointXYZ(xyz[0], xyz[1], xyz[2]));
-      } else {
+      const pcl::PointXYZ p(readFloat(point + layout.offsets[0], layout.swap_bytes),
+                            readFloat(point + layout.offsets[1], layout.swap_bytes),
+                            readFloat(point + layout.offsets[2], layout.swap_bytes));
+      if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) {
         ++out.dropped_non_finite;
+        continue;
       }
+      // Refused here, before the front end builds any kd-tree or voxel grid on it.
+      out.error = coordinateBoundProblem(p, std::size_t(row) * msg.width + col);
+      if (!out.error.empty()) return out;
+      cloud->push_back(p);
     }
   }
-  out.cloud->width = static_cast<std::uint32_t>(out.cloud->size());
-  out.cloud->height = 1;
-  out.cloud->is_dense = true;
+  cloud->width = static_cast<std::uint32_t>(cloud->size());
+  cloud->height = 1;
+  cloud->is_dense = true;
+  out.cloud = cloud;
   return out;
 }
 

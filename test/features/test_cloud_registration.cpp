@@ -163,6 +163,47 @@ TEST(BadInput, CloudsWithoutThreeFinitePointsFailAsInvalidInput) {
                std::invalid_argument);
 }
 
+// Finite but absurd coordinates (a misdecoded cloud, planted 3e38) used to abort the process in FLANN;
+// they are refused as invalid input naming the cloud, the point and the bound, before any kd-tree.
+TEST(BadInput, CoordinatesBeyondTheBoundFailAsInvalidInputNamingTheCloud) {
+  for (const float far : {3e38f, -1e20f, 2e6f}) {
+    PointCloud source = *realPair().source;
+    source[7].x = far;
+    const CloudRegistrationResult r =
+        registerClouds(source, *realPair().target, FeatureParams{}, MacParams{});
+    EXPECT_FALSE(r.registration.success);
+    EXPECT_EQ(r.registration.status, RegistrationStatus::kInvalidInput);
+    EXPECT_NE(r.registration.message.find("source cloud: point 7 has x = "), std::string::npos)
+        << r.registration.message;
+    EXPECT_NE(r.registration.message.find("+-1e+06 m"), std::string::npos) << r.registration.message;
+    PointCloud target = *realPair().target;
+    target[0].z = far;
+    EXPECT_THROW(describeCloud(target, FeatureParams{}, "target"), std::invalid_argument);
+  }
+}
+
+// Within the bound but far out, float32 steps outgrow the voxel: refused for a fine voxel, accepted for a
+// coarse one (at 5e5 m float32 values are 3.1 cm apart).
+TEST(BadInput, CoordinatesTooCoarseInFloat32ForTheVoxelSizeAreRefused) {
+  PointCloud far_away;
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 20; ++j)
+      far_away.push_back(pcl::PointXYZ(5e5f + i * 0.5f, j * 0.5f, float((i * j) % 3) * 0.3f));
+  FeatureParams fine;  // 5 cm voxels
+  try {
+    describeCloud(far_away, fine, "source");
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("source cloud: its coordinates reach 500010 m, where float32 values "
+                                         "are 0.03125 m apart"),
+              std::string::npos)
+        << e.what();
+  }
+  FeatureParams coarse;
+  coarse.voxel_size = 0.3;
+  EXPECT_EQ(describeCloud(far_away, coarse, "source").points, far_away.size());
+}
+
 // A plane has near-identical FPFH everywhere: whatever the matches, a pose that tilts the plane out of
 // itself would be wrong; a failure must say why.
 TEST(BadInput, AFeaturelessPlaneGivesAnInPlanePoseOrAFailure) {

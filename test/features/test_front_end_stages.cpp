@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <stdexcept>
+#include <string>
 
 #include "mac_registration/features/front_end_stages.hpp"
 
@@ -74,6 +76,56 @@ TEST(VoxelDownsample, RefusesAGridTooFineForTheExtent) {
   const PointCloud cloud = cloudOf({{0, 0, 0}, {3000.0f, 0, 0}});
   EXPECT_THROW(voxelDownsample(cloud, 0.001), std::invalid_argument);  // 3 M voxels along x
   EXPECT_EQ(voxelDownsample(cloud, 0.01)->size(), 2u);                 // 300 k: fine
+}
+
+// Voxel indices are computed in double and range-checked before the cast: coordinates of 1e20 m (UBSan
+// reported a signed overflow here) or float's largest are refused, never wrapped into a wrong voxel.
+TEST(VoxelDownsample, RefusesCoordinatesWhoseVoxelIndexWouldOverflow) {
+  const float largest = std::numeric_limits<float>::max();
+  for (const float far : {1e20f, -1e20f, 3e38f, largest, -largest}) {
+    const PointCloud cloud = cloudOf({{0, 0, 0}, {0, far, 0}});
+    try {
+      voxelDownsample(cloud, 0.05);
+      ADD_FAILURE() << "no error for y = " << far;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("2^52 voxels"), std::string::npos) << e.what();
+    }
+  }
+  // A tiny voxel makes the index overflow a double too (Inf): refused the same way.
+  EXPECT_THROW(voxelDownsample(cloudOf({{1e10f, 0, 0}}), 1e-300), std::invalid_argument);
+  // Within 2^52 voxels but spread over more than 2^21: the extent check answers.
+  try {
+    voxelDownsample(cloudOf({{-1e9f, 0, 0}, {1e9f, 0, 0}}), 1.0);
+    ADD_FAILURE() << "no error for a 2e9-voxel extent";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("raise the voxel size"), std::string::npos) << e.what();
+  }
+  // Far from the origin but compact: fine.
+  EXPECT_EQ(voxelDownsample(cloudOf({{9e5f, 0, 0}, {9e5f, 1, 0}}), 0.5)->size(), 2u);
+}
+
+TEST(CoordinateBound, AllowsTheBoundAndRefusesBeyondItNamingThePoint) {
+  const float bound = float(kMaxAbsCoordinate);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(coordinateBoundProblem(cloudOf({{bound, -bound, 0}, {nan, inf, 1}})), "");
+  const std::string problem = coordinateBoundProblem(cloudOf({{0, 0, 0}, {1, 2, 3}, {0, 0, -1.5e6f}}));
+  EXPECT_NE(problem.find("point 2 has z = -1.5e+06 m"), std::string::npos) << problem;
+  EXPECT_NE(problem.find("+-1e+06 m"), std::string::npos) << problem;
+  EXPECT_NE(problem.find("float32"), std::string::npos) << problem;  // why there is a bound
+  EXPECT_NE(coordinateBoundProblem(pcl::PointXYZ(3e38f, 0, 0), 41).find("point 41 has x = 3e+38"),
+            std::string::npos);
+}
+
+// FLANN aborts the whole process (an assertion in its heap) on the overflowing distances of such points.
+TEST(Resolution, RefusesCoordinatesBeyondTheBoundInsteadOfBuildingAKdTree) {
+  PointCloud::Ptr cloud = grid(5, 0.1f);
+  cloud->push_back(pcl::PointXYZ(3e38f, 3e38f, 3e38f));
+  try {
+    meanNearestNeighbourDistance(cloud, 100);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("point 25 has x = 3e+38"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Resolution, IsTheSpacingOfARegularGrid) {

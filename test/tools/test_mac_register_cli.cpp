@@ -116,6 +116,37 @@ TEST(MacRegisterCli, MissingAndCorruptCloudsExitTwoNamingTheFile) {
   EXPECT_EQ(r.status, 2);
   EXPECT_TRUE(contains(r.output, "features.voxel_size")) << r.output;
 }
+
+// Each of these used to crash mac_register (SIGSEGV in PCL's reader, SIGABRT in FLANN), exhaust memory,
+// or exit 0 after a warning; now each exits 2 naming the file and the reason.
+TEST(MacRegisterCli, MalformedCloudFilesExitTwoNamingTheFileAndTheReason) {
+  TempDir dir;
+  const std::string good = dataPath("redkitchen_4_0/target_cloud_bin_0.pcd");
+  const std::string fields = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  const std::string three = fields + "WIDTH 3\nHEIGHT 1\nPOINTS 3\n";
+  const struct {
+    std::string name, content, reason;
+  } cases[] = {
+      {"keyword.pcd", "RANGE 10\n" + three + "DATA ascii\n1 2 3\n4 5 6\n7 8 9\n",
+       "unknown header line 1 'RANGE 10'"},
+      {"malformed.pcd", three + "DATA ascii\n1 2 3\n4 5\n7 8 9\n", "line 10 holds 2 values, not 3"},
+      {"planted.pcd", three + "DATA ascii\n1 2 3\n4 5 6\n7 8 3e38\n", "point 2 has z = 3e+38 m"},
+      {"wide.pcd",
+       fields + "WIDTH 2000000000\nHEIGHT 1\nPOINTS 2000000000\nDATA binary\n" + std::string(36, '\0'),
+       "need 24000000000 bytes"},
+      {"huge.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\nproperty float y\n"
+       "property float z\nend_header\n" +
+           std::string(36, '\0'),
+       "need at least 12000000000 bytes"},
+  };
+  for (const auto& c : cases) {
+    const CliRun r = run(dir.write(c.name, c.content) + " " + good);
+    EXPECT_EQ(r.status, 2) << c.name << ": " << r.output;
+    EXPECT_TRUE(contains(r.output, dir.file(c.name)) && contains(r.output, c.reason))
+        << c.name << ": " << r.output;
+  }
+}
 #else
 TEST(MacRegisterCli, CoreOnlyBuildRefusesCloudsWithTheReason) {
   const CliRun r = run(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +

@@ -55,8 +55,10 @@ struct DescribedCloud {
   double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0;
 };
 
-// Throws std::invalid_argument for invalid params or a cloud with fewer than 3 finite points; `role`
-// ("source", "target") names the cloud in that message.
+// Throws std::invalid_argument for invalid params, a cloud with fewer than 3 finite points, or one whose
+// coordinates are beyond kMaxAbsCoordinate or so large that float32 spaces them more than a quarter voxel
+// apart (the voxel grid and FPFH would see a staircase); `role` ("source", "target") names the cloud in
+// that message. All of it is checked before any kd-tree or voxel grid is built.
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role);
 
 // Whether `cloud` was described with the voxel size and radii of `params` (what its descriptors depend on).
@@ -95,8 +97,24 @@ CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const
                                                  const FeatureParams& feature_params,
                                                  const MacParams& mac_params, const StopFlag* stop = nullptr);
 
-// Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). Throws std::runtime_error naming
-// the file when it is missing, unreadable or has no points.
+// [m] The largest |coordinate| a cloud may have where it enters the front end (loadCloud, describeCloud and
+// the ROS reader). 10^6 m holds any UTM easting and any map in a local frame up to a UTM zone's width, and
+// float32 still spaces coordinates 6.25 cm apart there, finer than an outdoor voxel; beyond it a cloud is
+// misdecoded or in global coordinates (UTM northings: 1 m steps), and its squared distances would overflow
+// the kd-trees' float arithmetic at ~10^19 m. Finer voxels need a tighter bound: see describeCloud.
+constexpr double kMaxAbsCoordinate = 1.0e6;
+
+// Why `point` (number `index` of its cloud) is refused: a finite coordinate beyond +-kMaxAbsCoordinate
+// ("point 7 has x = 3e+38 m, beyond ..."); empty when it is within. NaN/Inf are left to finitePoints.
+std::string coordinateBoundProblem(const pcl::PointXYZ& point, std::size_t index);
+
+// The same for the first such point of `cloud`.
+std::string coordinateBoundProblem(const PointCloud& cloud);
+
+// Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). The header of a .pcd / .ply is
+// checked before PCL reads it (known keywords only, consistent field lists and counts, the declared points
+// present in the file), and the coordinates against kMaxAbsCoordinate. Throws std::runtime_error naming the
+// file and the reason when it is missing, malformed, unreadable or has no points.
 PointCloud::Ptr loadCloud(const std::string& path);
 
 }  // namespace mac_registration

@@ -22,13 +22,15 @@ PointCloud::Ptr finitePoints(const PointCloud& cloud, std::size_t& dropped);
 
 // resolution.cpp: mean distance from a point to its nearest other point [m]. At most `max_queries`
 // points, spread evenly over the cloud, are queried against the whole cloud. 0 for fewer than 2 points.
-// `cloud` must be finite.
+// `cloud` must be finite; throws std::invalid_argument when a coordinate is beyond kMaxAbsCoordinate (FLANN
+// aborts the process on the overflowing distances of such points).
 double meanNearestNeighbourDistance(const PointCloud::ConstPtr& cloud, std::size_t max_queries);
 
 // voxel_downsampling.cpp: one point per occupied cubic voxel of edge `voxel_size` [m] (grid anchored at
 // the origin), the centroid of its points; voxels in lexicographic order of their integer coordinates,
-// so the result does not depend on the order of the input. `cloud` must be finite. Throws
-// std::invalid_argument when the cloud spans more than 2^20 voxels along an axis.
+// so the result does not depend on the order of the input. Throws std::invalid_argument when the cloud
+// spans more than 2^21 voxels along an axis, or a coordinate is not finite or lies more than 2^52 voxels
+// from the origin (no finite input overflows the integer voxel indices).
 PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size);
 
 // normals.cpp: normals from the points within `radius` [m] (PCL's OpenMP estimator), oriented towards

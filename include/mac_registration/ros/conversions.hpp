@@ -18,8 +18,11 @@ struct CloudConversion {
   std::string error;  // why the message cannot be used, empty if it can
 };
 
-// Accepts any layout with float32 x, y, z fields (organized or not, any other fields); refuses empty
-// clouds, missing or non-float32 x/y/z, and data shorter than its declared size, with a reason.
+// Accepts any layout with float32 x, y, z fields (organized or not, any other fields, either byte order:
+// is_bigendian is honoured); refuses with a reason empty clouds, missing, duplicated, overlapping or
+// non-float32 x/y/z, fields outside point_step (point_step 0 included), rows longer than row_step, data
+// shorter than its declared size, and finite coordinates beyond kMaxAbsCoordinate. The reason does not
+// name the cloud: callers prefix its role ("source cloud: ...").
 CloudConversion toPointCloud(const sensor_msgs::PointCloud2& msg);
 
 // An x y z float32 PointCloud2 of `cloud`, transformed by T.
