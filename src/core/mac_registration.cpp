@@ -61,16 +61,18 @@ CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget,
 }
 
 std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const CorrespondenceSet& c,
-                                          const MacParams& params, MacResult& result) {
+                                          const MacParams& params, const StopFlag* stop, MacResult& result) {
   NodeGuidedSelector selector(graph);
   Clock::duration selecting{0};
   const auto search_start = Clock::now();
-  const CliqueSearchStats stats =
-      searchMaximalCliques(graph, params.cliques, [&](const int* nodes, std::size_t size) {
+  const CliqueSearchStats stats = searchMaximalCliques(
+      graph, params.cliques,
+      [&](const int* nodes, std::size_t size) {
         const auto offered = Clock::now();
         selector.offer(nodes, size);
         selecting += Clock::now() - offered;
-      });
+      },
+      stop);
   const double selecting_ms = std::chrono::duration<double, std::milli>(selecting).count();
   result.times.clique_search_ms = millisecondsSince(search_start) - selecting_ms;
   const auto filter_start = Clock::now();
@@ -86,7 +88,13 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
         "still scored)");
   }
   result.clique_search_complete = stats.complete;
+  if (stats.stale_igraph_cleanups > 0) {
+    result.warnings.push_back("igraph left " + std::to_string(stats.stale_igraph_cleanups) +
+                              " temporaries on its cleanup stack after the clique search; dropped them "
+                              "unfreed so that no later igraph call frees them");
+  }
   if (!stats.error.empty()) throw std::runtime_error("maximal clique search failed: " + stats.error);
+  if (stats.cancelled) return {};
   if (!stats.complete) {
     std::ostringstream text;
     text << "clique search stopped by its " << (stats.hit_time_limit ? "time limit (cliques.time_limit)" : "")
@@ -217,7 +225,8 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
   }
 
   if (stopped(stop, result, "the clique search")) return;
-  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, result);
+  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, stop, result);
+  if (stopped(stop, result, "the clique selection")) return;
   if (cliques.empty()) {
     fail(result, RegistrationStatus::kNoClique,
          "no clique of " + std::to_string(params.cliques.min_clique_size) +
