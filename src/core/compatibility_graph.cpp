@@ -77,9 +77,9 @@ using UpperRows = std::vector<std::vector<UpperEdge>>;
 
 // Fills rows with every compatible pair (i, j > i) among nodes with keep[i] (all when keep is empty).
 // Returns false, leaving rows incomplete, as soon as more than max_edges edges are found; the total is
-// the same whatever the thread count, so the outcome is too.
+// the same whatever the thread count, so the outcome is too. A raised stop leaves the rows incomplete.
 bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, const std::vector<char>& keep,
-                            std::size_t max_edges, int num_threads, UpperRows& rows) {
+                            std::size_t max_edges, int num_threads, const StopFlag* stop, UpperRows& rows) {
   const int n = static_cast<int>(points.sx.size());
   const float max_d2 = static_cast<float>(maxResidualSquared(params));
   rows.assign(n, {});
@@ -91,7 +91,8 @@ bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, 
     std::vector<int> candidates(n);
 #pragma omp for schedule(dynamic, 16)
     for (int i = 0; i < n; ++i) {
-      if (overflow.load(std::memory_order_relaxed) || (!keep.empty() && !keep[i])) continue;
+      if (overflow.load(std::memory_order_relaxed) || stopRequested(stop) || (!keep.empty() && !keep[i]))
+        continue;
       points.residualsSquared(i, i + 1, n, d2.data());
       // Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
       int found = 0;
@@ -112,13 +113,15 @@ bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, 
 
 // Degree of each node estimated against an evenly spaced sample of the others: a cheap look at a graph
 // too dense to build.
-std::vector<double> estimatedDegrees(const PointsSoA& points, const GraphParams& params, int num_threads) {
+std::vector<double> estimatedDegrees(const PointsSoA& points, const GraphParams& params, int num_threads,
+                                     const StopFlag* stop) {
   const int n = static_cast<int>(points.sx.size());
   const int samples = std::min(n, 1024);
   const float max_d2 = static_cast<float>(maxResidualSquared(params));
   std::vector<double> degree(n, 0.0);
 #pragma omp parallel for schedule(static) num_threads(num_threads)
   for (int i = 0; i < n; ++i) {
+    if (stopRequested(stop)) continue;
     int count = 0;
     for (int s = 0; s < samples; ++s) {
       const int j = static_cast<int>((static_cast<long long>(s) * n) / samples);
@@ -165,7 +168,7 @@ CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vect
 }
 
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads) {
+                                     int num_threads, const StopFlag* stop) {
   const int n = static_cast<int>(correspondences.size());
   FirstOrderGraph result;
   if (n == 0) {
@@ -174,15 +177,17 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   }
   const PointsSoA points(correspondences);
   UpperRows rows;
-  if (!collectCompatiblePairs(points, params, {}, params.max_edges, num_threads, rows)) {
+  if (!collectCompatiblePairs(points, params, {}, params.max_edges, num_threads, stop, rows) &&
+      !stopRequested(stop)) {
     // Too dense to hold: keep the nodes of highest estimated degree, few enough that even a complete
     // graph on them fits the bound.
     const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
-    const auto keep = strongestNodes(estimatedDegrees(points, params, num_threads), keep_count);
-    collectCompatiblePairs(points, params, keep, params.max_edges, num_threads, rows);
+    const auto keep = strongestNodes(estimatedDegrees(points, params, num_threads, stop), keep_count);
+    collectCompatiblePairs(points, params, keep, params.max_edges, num_threads, stop, rows);
     result.reduced = true;
     result.reduced_to = std::min<std::size_t>(keep_count, n);
   }
+  result.cancelled = stopRequested(stop);
   result.graph = graphFromUpperRows(n, rows);
   return result;
 }
@@ -198,7 +203,8 @@ double secondOrderWork(const CompatibilityGraph& graph) {
   return work;
 }
 
-CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads) {
+CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
+                                         const StopFlag* stop) {
   const int n = fog.num_nodes;
   UpperRows rows(n);
 #pragma omp parallel num_threads(num_threads)
@@ -208,6 +214,7 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
     std::vector<float> row_i(n, 0.0f);
 #pragma omp for schedule(dynamic, 8)
     for (int i = 0; i < n; ++i) {
+      if (stopRequested(stop)) continue;
       const auto begin = fog.offsets[i], end = fog.offsets[i + 1];
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = fog.weights[p];
       for (auto p = begin; p < end; ++p) {

@@ -2,8 +2,10 @@
 // never in a crash, a NaN pose or an uninitialized one.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
+#include <thread>
 
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
@@ -27,6 +29,36 @@ TEST(BadInput, RaisedStopFlagCancelsWithoutAPose) {
   const StopFlag stop{true};
   const MacResult result = registerCorrespondences(randomRigidSet(200, 3), test::roomScaleParams(), &stop);
   expectFailure(result, RegistrationStatus::kCancelled);
+}
+
+// Registers on this thread while another raises the flag once the registration is under way (100 ms: far
+// less than either case takes, whatever the machine), as a shutdown would.
+MacResult registerAndStopMidway(const CorrespondenceSet& c, const MacParams& params) {
+  StopFlag stop{false};
+  std::thread stopper([&stop] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    stop = true;
+  });
+  const MacResult result = registerCorrespondences(c, params, &stop);
+  stopper.join();
+  return result;
+}
+
+TEST(BadInput, StopFlagRaisedDuringALongRegistrationCancelsIt) {
+  // 200 000 correspondences with edges so short that no pair is compatible: the first-order pass tests
+  // all 2e10 pairs, tens of seconds unless the flag ends it.
+  const CorrespondenceSet large =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(200000, 0.05, 5)).correspondences;
+  MacParams sparse = test::roomScaleParams();
+  sparse.graph.gaussian_sigma = 1e-6;
+  expectFailure(registerAndStopMidway(large, sparse), RegistrationStatus::kCancelled);
+
+  // The same set with its usual thresholds: a dense consensus, stopped in whichever stage it has reached.
+  expectFailure(registerAndStopMidway(large, test::roomScaleParams()), RegistrationStatus::kCancelled);
+
+  // Nothing is left behind: the next registration succeeds.
+  const MacResult after = registerCorrespondences(randomRigidSet(200, 3), test::roomScaleParams());
+  EXPECT_TRUE(after.success) << after.message;
 }
 
 TEST(BadInput, FewerThanThreeCorrespondences) {

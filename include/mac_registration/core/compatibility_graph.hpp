@@ -6,6 +6,7 @@
 
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -37,16 +38,21 @@ struct FirstOrderGraph {
   // the kept ones (others are isolated) and reduced_to says how many were kept.
   bool reduced = false;
   std::size_t reduced_to = 0;
+  // The stop flag ended the pass: the graph is incomplete and not to be used.
+  bool cancelled = false;
 };
 
 // First-order compatibility graph (FOG, paper Eq. 1-2): an edge where the score is >= t_cmp, weighted by
 // the score. Both scores are monotone in d, so each pair is tested against a precomputed bound on d^2.
+// A raised `stop` ends the pass within a row of pairs.
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads);
+                                     int num_threads, const StopFlag* stop = nullptr);
 
 // Second-order weights (paper Eq. 4): w_ij = S_ij * sum_k S_ik S_jk over common neighbours k, on the
-// sparse lists. Edges in no triangle get weight 0 and are removed.
-CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads);
+// sparse lists. Edges in no triangle get weight 0 and are removed. A raised `stop` ends the pass within a
+// row, leaving the graph incomplete: the caller checks the flag before using it.
+CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
+                                         const StopFlag* stop = nullptr);
 
 // Multiply-adds buildSecondOrderGraph would spend on this graph.
 double secondOrderWork(const CompatibilityGraph& graph);
