@@ -97,6 +97,17 @@ CompatibilityGraph disjointTriangles(int count) {
   return graphFromEdges(3 * count, edges);
 }
 
+TEST(CliqueSearch, IsolatedNodesKeepTheirIdsAndCostNothing) {
+  // A triangle among 300 000 nodes, the shape of a graph reduced from a large correspondence set. Handed
+  // to igraph whole, its enumeration would be quadratic in the node count (over 10 s).
+  CliqueSearchParams params;
+  params.time_limit = 10.0;
+  const auto result = search(graphFromEdges(300000, {{5, 100000}, {5, 299999}, {100000, 299999}}), params);
+  EXPECT_EQ(result.cliques, (std::vector<Clique>{{5, 100000, 299999}}));
+  EXPECT_TRUE(result.stats.complete);
+  EXPECT_EQ(result.stats.nodes_searched, 3u);
+}
+
 TEST(CliqueSearch, CountLimitWithoutPruning) {
   CliqueSearchParams params;
   params.max_cliques = 1;
