@@ -197,13 +197,20 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
   auto start = Clock::now();
   FirstOrderGraph fog = buildFirstOrderGraph(c, params.graph, threads, stop);
   if (stopped(stop, result, "the compatibility graph")) return;
-  result.counters.graph_nodes = fog.reduced ? fog.reduced_to : c.size();
+  result.counters.graph_nodes = fog.reduced ? fog.reduced_to : fog.sampled ? fog.sampled_to : c.size();
   result.counters.first_order_edges = fog.graph.numEdges();
+  if (fog.sampled) {
+    result.graph_reduced = true;
+    result.warnings.push_back(std::to_string(c.size()) +
+                              " correspondences over graph.max_correspondences: the compatibility graph is "
+                              "built on " +
+                              std::to_string(fog.sampled_to) + " of them, evenly spaced (all are scored)");
+  }
   if (fog.reduced) {
     result.graph_reduced = true;
-    result.warnings.push_back("compatibility graph over graph.max_edges: built on the " +
-                              std::to_string(fog.reduced_to) +
-                              " correspondences of highest estimated degree");
+    result.warnings.push_back("compatibility graph over graph.max_edges (" +
+                              std::to_string(fog.compatible_pairs) + " compatible pairs): built on the " +
+                              std::to_string(fog.reduced_to) + " correspondences of highest degree");
   }
   result.times.graph_ms = millisecondsSince(start);
 
