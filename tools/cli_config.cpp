@@ -57,6 +57,8 @@ const std::map<std::string, Setter>& setters() {
        [](MacParams& p, auto& k, auto& v) { p.graph.quadratic_threshold = toDouble(k, v); }},
       {"graph.t_cmp", [](MacParams& p, auto& k, auto& v) { p.graph.t_cmp = toDouble(k, v); }},
       {"graph.second_order", [](MacParams& p, auto& k, auto& v) { p.graph.second_order = toBool(k, v); }},
+      {"graph.max_correspondences",
+       [](MacParams& p, auto& k, auto& v) { p.graph.max_correspondences = toCount(k, v); }},
       {"graph.max_edges", [](MacParams& p, auto& k, auto& v) { p.graph.max_edges = toCount(k, v); }},
       {"graph.max_second_order_work",
        [](MacParams& p, auto& k, auto& v) { p.graph.max_second_order_work = toDouble(k, v); }},

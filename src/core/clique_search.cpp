@@ -16,12 +16,15 @@ using Clock = std::chrono::steady_clock;
 
 struct SearchState {
   const CliqueVisitor* visit = nullptr;
+  const StopFlag* stop = nullptr;
   std::size_t limit = 0;
   Clock::time_point deadline;
   std::size_t count = 0;
   bool hit_count = false;
   bool hit_time = false;
+  bool cancelled = false;
   std::exception_ptr visitor_error;
+  std::vector<int> node_of_vertex;  // igraph vertex -> graph node
   std::vector<int> nodes;
 };
 
@@ -31,7 +34,7 @@ igraph_error_t onClique(const igraph_vector_int_t* clique, void* arg) {
   auto& state = *static_cast<SearchState*>(arg);
   const auto size = static_cast<std::size_t>(igraph_vector_int_size(clique));
   state.nodes.resize(size);
-  for (std::size_t k = 0; k < size; ++k) state.nodes[k] = static_cast<int>(VECTOR(*clique)[k]);
+  for (std::size_t k = 0; k < size; ++k) state.nodes[k] = state.node_of_vertex[VECTOR(*clique)[k]];
   std::sort(state.nodes.begin(), state.nodes.end());
   try {
     (*state.visit)(state.nodes.data(), size);
@@ -40,6 +43,10 @@ igraph_error_t onClique(const igraph_vector_int_t* clique, void* arg) {
     return IGRAPH_STOP;
   }
   ++state.count;
+  if (stopRequested(state.stop)) {
+    state.cancelled = true;
+    return IGRAPH_STOP;
+  }
   if (state.count >= state.limit) {
     state.hit_count = true;
     return IGRAPH_STOP;
@@ -56,46 +63,65 @@ struct SearchOutcome {
   std::size_t cliques = 0;
   bool hit_count = false;
   bool hit_time = false;
+  bool cancelled = false;
+  int stale_cleanups = 0;
   std::string error;
 };
 
-SearchOutcome searchOnce(const CompatibilityGraph& graph, const CliqueSearchParams& params,
-                         Clock::time_point deadline, const CliqueVisitor& visit) {
-  SearchOutcome outcome;
-  IgraphSession session(deadline);
-  igraph_vector_int_t edges;
-  if (igraph_vector_int_init(&edges, static_cast<igraph_integer_t>(2 * graph.numEdges())) != IGRAPH_SUCCESS) {
-    outcome.error = session.lastError();
-    return outcome;
+// Copies the graph into igraph and streams its maximal cliques to `state`; returns igraph's code. Only the
+// nodes with an edge become igraph vertices: igraph's enumeration clears a vector of all vertices for each
+// vertex it starts from, so isolated nodes (most of a graph reduced or thinned from a large set) would
+// make it quadratic in the number of correspondences (igraph 0.10: 1.3 s for 100 000 isolated vertices,
+// 16 s for 300 000).
+igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
+                                SearchState& state) {
+  std::vector<int> vertex_of_node(graph.num_nodes, -1);
+  state.node_of_vertex.clear();
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    if (graph.degree(i) == 0) continue;
+    vertex_of_node[i] = static_cast<int>(state.node_of_vertex.size());
+    state.node_of_vertex.push_back(i);
   }
+  igraph_vector_int_t edges;
+  const igraph_error_t init =
+      igraph_vector_int_init(&edges, static_cast<igraph_integer_t>(2 * graph.numEdges()));
+  if (init != IGRAPH_SUCCESS) return init;
   igraph_integer_t e = 0;
   for (int i = 0; i < graph.num_nodes; ++i) {
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
       if (graph.neighbours[p] <= i) continue;
-      VECTOR(edges)[e++] = i;
-      VECTOR(edges)[e++] = graph.neighbours[p];
+      VECTOR(edges)[e++] = vertex_of_node[i];
+      VECTOR(edges)[e++] = vertex_of_node[graph.neighbours[p]];
     }
   }
   igraph_t ig;
-  if (igraph_create(&ig, &edges, graph.num_nodes, IGRAPH_UNDIRECTED) != IGRAPH_SUCCESS) {
-    outcome.error = session.lastError();
-    igraph_vector_int_destroy(&edges);
-    return outcome;
-  }
+  const auto vertices = static_cast<igraph_integer_t>(state.node_of_vertex.size());
+  const igraph_error_t created = igraph_create(&ig, &edges, vertices, IGRAPH_UNDIRECTED);
   igraph_vector_int_destroy(&edges);
-
-  SearchState state;
-  state.visit = &visit;
-  state.limit = params.max_cliques;
-  state.deadline = deadline;
+  if (created != IGRAPH_SUCCESS) return created;
   const igraph_error_t code =
       igraph_maximal_cliques_callback(&ig, onClique, &state, params.min_clique_size, params.max_clique_size);
   igraph_destroy(&ig);
+  return code;
+}
+
+SearchOutcome searchOnce(const CompatibilityGraph& graph, const CliqueSearchParams& params,
+                         Clock::time_point deadline, const CliqueVisitor& visit, const StopFlag* stop) {
+  SearchOutcome outcome;
+  SearchState state;
+  state.visit = &visit;
+  state.stop = stop;
+  state.limit = params.max_cliques;
+  state.deadline = deadline;
+  IgraphSession session(deadline, stop);
+  const igraph_error_t code = enumerateCliques(graph, params, state);
+  outcome.stale_cleanups = session.dropStaleCleanups();
   if (state.visitor_error) std::rethrow_exception(state.visitor_error);
 
   outcome.cliques = state.count;
   outcome.hit_count = state.hit_count;
-  outcome.hit_time = state.hit_time || code == IGRAPH_INTERRUPTED;
+  outcome.cancelled = state.cancelled || (code == IGRAPH_INTERRUPTED && stopRequested(stop));
+  outcome.hit_time = state.hit_time || (code == IGRAPH_INTERRUPTED && !outcome.cancelled);
   if (code != IGRAPH_SUCCESS && code != IGRAPH_STOP && code != IGRAPH_INTERRUPTED)
     outcome.error = session.lastError();
   return outcome;
@@ -110,11 +136,11 @@ std::size_t nonIsolatedNodes(const CompatibilityGraph& graph) {
 // Leaves out nodes of the cores above max_degeneracy, keeping the strongest of them, until the graph's
 // degeneracy is within the bound. Each round keeps at most max_degeneracy of the over-dense nodes, and
 // adding k nodes raises the degeneracy by at most k, so one or two rounds usually suffice.
-CompatibilityGraph thinDenseCores(const CompatibilityGraph& graph, int max_degeneracy,
+CompatibilityGraph thinDenseCores(const CompatibilityGraph& graph, int max_degeneracy, const StopFlag* stop,
                                   CliqueSearchStats& stats) {
   CompatibilityGraph current = graph;
   std::vector<char> keep(graph.num_nodes, 1);
-  for (int round = 0; round < 8; ++round) {
+  for (int round = 0; round < 8 && !stopRequested(stop); ++round) {
     const std::vector<int> core = coreNumbers(current);
     std::vector<double> strength = nodeStrength(current);
     bool over = false;
@@ -139,7 +165,7 @@ CompatibilityGraph thinDenseCores(const CompatibilityGraph& graph, int max_degen
 }  // namespace
 
 CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
-                                       const CliqueVisitor& visit) {
+                                       const CliqueVisitor& visit, const StopFlag* stop) {
   CliqueSearchStats stats;
   const auto start = Clock::now();
   const auto budget =
@@ -151,18 +177,25 @@ CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const Cl
   CompatibilityGraph pruned;
   const CompatibilityGraph* current = &graph;
   if (params.max_degeneracy > 0 && stats.degeneracy > params.max_degeneracy) {
-    pruned = thinDenseCores(graph, params.max_degeneracy, stats);
+    pruned = thinDenseCores(graph, params.max_degeneracy, stop, stats);
     current = &pruned;
   }
   for (int round = 0;; ++round) {
+    if (stopRequested(stop)) {
+      stats.cancelled = true;
+      stats.complete = false;
+      break;
+    }
     stats.nodes_searched = nonIsolatedNodes(*current);
     // Keep half of what is left for the retries, so that a search stopped by time still leaves room to
     // search a pruned graph.
     const bool retries_left = round < params.max_pruning_rounds;
     const auto now = Clock::now();
     const auto deadline = retries_left ? now + (final_deadline - now) / 2 : final_deadline;
-    const SearchOutcome outcome = searchOnce(*current, params, deadline, visit);
+    const SearchOutcome outcome = searchOnce(*current, params, deadline, visit, stop);
     stats.cliques += outcome.cliques;
+    stats.stale_igraph_cleanups += outcome.stale_cleanups;
+    stats.cancelled = outcome.cancelled;
     stats.hit_count_limit |= outcome.hit_count;
     stats.hit_time_limit |= outcome.hit_time;
     if (!outcome.error.empty()) {
@@ -170,8 +203,8 @@ CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const Cl
       stats.complete = false;
       break;
     }
-    stats.complete = !outcome.hit_count && !outcome.hit_time;
-    if (stats.complete || !retries_left || Clock::now() >= final_deadline) break;
+    stats.complete = !outcome.hit_count && !outcome.hit_time && !outcome.cancelled;
+    if (stats.complete || outcome.cancelled || !retries_left || Clock::now() >= final_deadline) break;
 
     const auto keep_count = static_cast<std::size_t>(params.pruning_keep_fraction * stats.nodes_searched);
     pruned = keepNodes(*current, strongestNodes(nodeStrength(*current), keep_count));

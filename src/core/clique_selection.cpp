@@ -71,7 +71,8 @@ std::vector<SelectedClique> NodeGuidedSelector::selected() const {
 }
 
 std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
-                                                    const CorrespondenceSet& c, double threshold) {
+                                                    const CorrespondenceSet& c, double threshold,
+                                                    const StopFlag* stop) {
   const auto sine = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
     return a.cross(b).norm() / std::max(a.norm() * b.norm(), 1e-12);
   };
@@ -82,6 +83,7 @@ std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedCl
   };
   std::vector<SelectedClique> kept;
   for (const auto& clique : cliques) {
+    if (stopRequested(stop)) break;
     bool ok = true;
     for (std::size_t a = 0; ok && a < clique.nodes.size(); ++a) {
       for (std::size_t b = a + 1; ok && b < clique.nodes.size(); ++b)

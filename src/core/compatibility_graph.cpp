@@ -40,29 +40,35 @@ __attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(cons
   }
 }
 
-// Structure-of-arrays float copy, centred on each cloud's centroid so that float keeps millimetres even
-// for map-sized coordinates; the loops over it vectorize.
+// Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the
+// correspondences) so that float keeps millimetres even for map-sized coordinates; the loops over it
+// vectorize.
 struct PointsSoA {
   std::vector<float> sx, sy, sz, tx, ty, tz;
 
-  explicit PointsSoA(const CorrespondenceSet& c) {
+  PointsSoA(const CorrespondenceSet& c, const std::vector<int>& nodes) {
     const Eigen::Vector3d s0 = c.source_points.rowwise().mean();
     const Eigen::Vector3d t0 = c.target_points.rowwise().mean();
-    const std::size_t n = c.size();
-    for (auto* v : {&sx, &sy, &sz, &tx, &ty, &tz}) v->resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d s = c.source_points.col(i) - s0;
-      const Eigen::Vector3d t = c.target_points.col(i) - t0;
-      sx[i] = float(s.x()), sy[i] = float(s.y()), sz[i] = float(s.z());
-      tx[i] = float(t.x()), ty[i] = float(t.y()), tz[i] = float(t.z());
+    resize(nodes.size());
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      const Eigen::Vector3d s = c.source_points.col(nodes[k]) - s0;
+      const Eigen::Vector3d t = c.target_points.col(nodes[k]) - t0;
+      sx[k] = float(s.x()), sy[k] = float(s.y()), sz[k] = float(s.z());
+      tx[k] = float(t.x()), ty[k] = float(t.y()), tz[k] = float(t.z());
     }
   }
 
-  float residualSquared(int i, int j) const {
-    const float ds = std::sqrt(sq(sx[i] - sx[j]) + sq(sy[i] - sy[j]) + sq(sz[i] - sz[j]));
-    const float dt = std::sqrt(sq(tx[i] - tx[j]) + sq(ty[i] - ty[j]) + sq(tz[i] - tz[j]));
-    return sq(ds - dt);
+  // The points `subset` of `from`, the same floats: a pair tests the same in both.
+  PointsSoA(const PointsSoA& from, const std::vector<int>& subset) {
+    resize(subset.size());
+    for (std::size_t k = 0; k < subset.size(); ++k) {
+      const int i = subset[k];
+      sx[k] = from.sx[i], sy[k] = from.sy[i], sz[k] = from.sz[i];
+      tx[k] = from.tx[i], ty[k] = from.ty[i], tz[k] = from.tz[i];
+    }
   }
+
+  int size() const { return static_cast<int>(sx.size()); }
 
   // d^2 of pair (i, j) for every j in [begin, end), written to out[j - begin].
   void residualsSquared(int i, int begin, int end, float* out) const {
@@ -70,28 +76,43 @@ struct PointsSoA {
                          out);
   }
 
-  static float sq(float v) { return v * v; }
+ private:
+  void resize(std::size_t n) {
+    for (auto* v : {&sx, &sy, &sz, &tx, &ty, &tz}) v->resize(n);
+  }
 };
 
 using UpperRows = std::vector<std::vector<UpperEdge>>;
 
-// Fills rows with every compatible pair (i, j > i) among nodes with keep[i] (all when keep is empty).
-// Returns false, leaving rows incomplete, as soon as more than max_edges edges are found; the total is
-// the same whatever the thread count, so the outcome is too.
-bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, const std::vector<char>& keep,
-                            std::size_t max_edges, int num_threads, UpperRows& rows) {
-  const int n = static_cast<int>(points.sx.size());
+// One pass over every pair of a point set.
+struct PairPass {
+  UpperRows rows;                // every compatible pair (i, j > i), when within max_edges, else empty
+  std::vector<int> degree;       // compatible pairs of each point, all of them counted
+  std::size_t compatible = 0;    // compatible pairs in all
+  bool within_max_edges = true;  // compatible <= max_edges, and so rows are complete
+};
+
+// Tests every pair, counting each point's compatible pairs, and keeps the edges while there are at most
+// max_edges of them (memory stays bounded past that; the count goes on, so that a reduction can rank
+// nodes by their true degree). Counts and the outcome are the same whatever the thread count. A raised
+// stop leaves everything incomplete.
+PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std::size_t max_edges,
+                         int num_threads, const StopFlag* stop) {
+  const int n = points.size();
   const float max_d2 = static_cast<float>(maxResidualSquared(params));
-  rows.assign(n, {});
+  PairPass pass;
+  pass.rows.assign(n, {});
+  pass.degree.assign(n, 0);
   std::atomic<std::size_t> total{0};
   std::atomic<bool> overflow{false};
 #pragma omp parallel num_threads(num_threads)
   {
     std::vector<float> d2(n);
     std::vector<int> candidates(n);
+    std::vector<int> degree(n, 0);  // this thread's counts, summed below: integers, so in any order
 #pragma omp for schedule(dynamic, 16)
     for (int i = 0; i < n; ++i) {
-      if (overflow.load(std::memory_order_relaxed) || (!keep.empty() && !keep[i])) continue;
+      if (stopRequested(stop)) continue;
       points.residualsSquared(i, i + 1, n, d2.data());
       // Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
       int found = 0;
@@ -99,34 +120,51 @@ bool collectCompatiblePairs(const PointsSoA& points, const GraphParams& params, 
         candidates[found] = j;
         found += d2[j - i - 1] <= max_d2;
       }
-      auto& row = rows[i];
+      degree[i] += found;
+      for (int c = 0; c < found; ++c) ++degree[candidates[c]];
+      if (total.fetch_add(found) + found > max_edges) overflow = true;
+      if (overflow.load(std::memory_order_relaxed)) continue;
+      auto& row = pass.rows[i];
+      row.reserve(found);
       for (int c = 0; c < found; ++c) {
         const int j = candidates[c];
-        if (keep.empty() || keep[j]) row.push_back({j, scoreFromResidualSquared(d2[j - i - 1], params)});
+        row.push_back({j, scoreFromResidualSquared(d2[j - i - 1], params)});
       }
-      if (total.fetch_add(row.size()) + row.size() > max_edges) overflow = true;
     }
+#pragma omp critical
+    for (int i = 0; i < n; ++i) pass.degree[i] += degree[i];
   }
-  return !overflow;
+  pass.compatible = total;
+  pass.within_max_edges = !overflow;
+  if (overflow) UpperRows().swap(pass.rows);
+  return pass;
 }
 
-// Degree of each node estimated against an evenly spaced sample of the others: a cheap look at a graph
-// too dense to build.
-std::vector<double> estimatedDegrees(const PointsSoA& points, const GraphParams& params, int num_threads) {
-  const int n = static_cast<int>(points.sx.size());
-  const int samples = std::min(n, 1024);
-  const float max_d2 = static_cast<float>(maxResidualSquared(params));
-  std::vector<double> degree(n, 0.0);
-#pragma omp parallel for schedule(static) num_threads(num_threads)
-  for (int i = 0; i < n; ++i) {
-    int count = 0;
-    for (int s = 0; s < samples; ++s) {
-      const int j = static_cast<int>((static_cast<long long>(s) * n) / samples);
-      if (j != i && points.residualSquared(i, j) <= max_d2) ++count;
-    }
-    degree[i] = count;
+// `count` indices spread evenly over [0, n), ascending; all of them when count >= n.
+std::vector<int> evenlySpaced(int n, std::size_t count) {
+  const auto m = static_cast<long long>(std::min<std::size_t>(count, static_cast<std::size_t>(n)));
+  std::vector<int> picked(m);
+  for (long long k = 0; k < m; ++k) picked[k] = static_cast<int>(k * n / m);
+  return picked;
+}
+
+std::vector<int> indicesOf(const std::vector<char>& mask) {
+  std::vector<int> indices;
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    if (mask[i]) indices.push_back(static_cast<int>(i));
   }
-  return degree;
+  return indices;
+}
+
+// Rows over points 0..m-1 of a subset as rows over graph nodes, point k being node node_of_point[k]
+// (ascending, so every row stays ascending).
+UpperRows rowsOfNodes(UpperRows points_rows, const std::vector<int>& node_of_point, int num_nodes) {
+  UpperRows rows(num_nodes);
+  for (std::size_t k = 0; k < points_rows.size(); ++k) {
+    for (auto& e : points_rows[k]) e.to = node_of_point[e.to];
+    rows[node_of_point[k]] = std::move(points_rows[k]);
+  }
+  return rows;
 }
 
 }  // namespace
@@ -165,23 +203,43 @@ CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vect
 }
 
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads) {
+                                     int num_threads, const StopFlag* stop) {
   const int n = static_cast<int>(correspondences.size());
   FirstOrderGraph result;
   if (n == 0) {
     result.graph = graphFromUpperRows(0, {});
     return result;
   }
-  const PointsSoA points(correspondences);
+  // The pass is O(N^2): above max_correspondences it runs on an evenly spaced subset, which keeps the
+  // inlier ratio of the whole set and bounds the time whatever N.
+  const std::size_t cap = params.max_correspondences > 0 ? params.max_correspondences : std::size_t(n);
+  const std::vector<int> nodes = evenlySpaced(n, cap);
+  result.sampled = nodes.size() < std::size_t(n);
+  result.sampled_to = nodes.size();
+  const PointsSoA points(correspondences, nodes);
+  PairPass pass = compatiblePairs(points, params, params.max_edges, num_threads, stop);
+  result.compatible_pairs = pass.compatible;
+  if (stopRequested(stop)) {
+    result.cancelled = true;
+    result.graph = graphFromUpperRows(n, UpperRows(n));
+    return result;
+  }
   UpperRows rows;
-  if (!collectCompatiblePairs(points, params, {}, params.max_edges, num_threads, rows)) {
-    // Too dense to hold: keep the nodes of highest estimated degree, few enough that even a complete
-    // graph on them fits the bound.
+  if (pass.within_max_edges) {
+    rows = rowsOfNodes(std::move(pass.rows), nodes, n);
+  } else {
+    // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
+    // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
     const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
-    const auto keep = strongestNodes(estimatedDegrees(points, params, num_threads), keep_count);
-    collectCompatiblePairs(points, params, keep, params.max_edges, num_threads, rows);
+    const std::vector<int> kept =
+        indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
+    std::vector<int> kept_nodes(kept.size());
+    for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
+    PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
+    rows = rowsOfNodes(std::move(dense.rows), kept_nodes, n);
     result.reduced = true;
-    result.reduced_to = std::min<std::size_t>(keep_count, n);
+    result.reduced_to = kept.size();
+    result.cancelled = stopRequested(stop);
   }
   result.graph = graphFromUpperRows(n, rows);
   return result;
@@ -198,7 +256,8 @@ double secondOrderWork(const CompatibilityGraph& graph) {
   return work;
 }
 
-CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads) {
+CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
+                                         const StopFlag* stop) {
   const int n = fog.num_nodes;
   UpperRows rows(n);
 #pragma omp parallel num_threads(num_threads)
@@ -208,6 +267,7 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
     std::vector<float> row_i(n, 0.0f);
 #pragma omp for schedule(dynamic, 8)
     for (int i = 0; i < n; ++i) {
+      if (stopRequested(stop)) continue;
       const auto begin = fog.offsets[i], end = fog.offsets[i + 1];
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = fog.weights[p];
       for (auto p = begin; p < end; ++p) {

@@ -41,10 +41,11 @@ std::optional<Eigen::Isometry3d> estimateRigidTransform(const CorrespondenceSet&
   return transform;
 }
 
-std::vector<double> principalEigenvector(const CompatibilityGraph& graph, int iterations) {
+std::vector<double> principalEigenvector(const CompatibilityGraph& graph, int iterations,
+                                         const StopFlag* stop) {
   const int n = graph.num_nodes;
   std::vector<double> vector(n, 1.0), next(n, 0.0);
-  for (int it = 0; it < iterations; ++it) {
+  for (int it = 0; it < iterations && !stopRequested(stop); ++it) {
     double largest = 0.0;
     for (int i = 0; i < n; ++i) {
       double sum = 0.0;

@@ -30,16 +30,19 @@ MacResult& fail(MacResult& result, RegistrationStatus status, const std::string&
   return result;
 }
 
-// True, with the result marked cancelled, when the caller asked to stop; checked between stages.
-bool stopped(const StopFlag* stop, MacResult& result, const char* before_stage) {
+// True, with the result marked cancelled, when the caller asked to stop. Checked after every stage: the
+// long loops inside the stages read the flag too and end early, leaving a partial result that is dropped
+// here.
+bool stopped(const StopFlag* stop, MacResult& result, const char* stage) {
   if (!stopRequested(stop)) return false;
-  fail(result, RegistrationStatus::kCancelled, std::string("cancelled before ") + before_stage);
+  fail(result, RegistrationStatus::kCancelled, std::string("cancelled at ") + stage);
   return true;
 }
 
 // Bounds the cost of the SOG weights: a graph whose second-order pass would exceed the budget keeps only
 // its highest-degree nodes (inliers of a dense consensus have the highest degree), shrinking until it fits.
-CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, MacResult& result) {
+CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop,
+                                        MacResult& result) {
   if (secondOrderWork(graph) <= budget) return graph;
   std::vector<double> degree(graph.num_nodes);
   std::size_t nodes = 0;
@@ -51,7 +54,7 @@ CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget,
   do {
     nodes = nodes * 7 / 10;
     reduced = keepNodes(graph, strongestNodes(degree, nodes));
-  } while (nodes > 3 && secondOrderWork(reduced) > budget);
+  } while (nodes > 3 && !stopRequested(stop) && secondOrderWork(reduced) > budget);
   result.graph_reduced = true;
   result.counters.graph_nodes = nodes;
   result.warnings.push_back(
@@ -61,16 +64,18 @@ CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget,
 }
 
 std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const CorrespondenceSet& c,
-                                          const MacParams& params, MacResult& result) {
+                                          const MacParams& params, const StopFlag* stop, MacResult& result) {
   NodeGuidedSelector selector(graph);
   Clock::duration selecting{0};
   const auto search_start = Clock::now();
-  const CliqueSearchStats stats =
-      searchMaximalCliques(graph, params.cliques, [&](const int* nodes, std::size_t size) {
+  const CliqueSearchStats stats = searchMaximalCliques(
+      graph, params.cliques,
+      [&](const int* nodes, std::size_t size) {
         const auto offered = Clock::now();
         selector.offer(nodes, size);
         selecting += Clock::now() - offered;
-      });
+      },
+      stop);
   const double selecting_ms = std::chrono::duration<double, std::milli>(selecting).count();
   result.times.clique_search_ms = millisecondsSince(search_start) - selecting_ms;
   const auto filter_start = Clock::now();
@@ -86,7 +91,13 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
         "still scored)");
   }
   result.clique_search_complete = stats.complete;
+  if (stats.stale_igraph_cleanups > 0) {
+    result.warnings.push_back("igraph left " + std::to_string(stats.stale_igraph_cleanups) +
+                              " temporaries on its cleanup stack after the clique search; dropped them "
+                              "unfreed so that no later igraph call frees them");
+  }
   if (!stats.error.empty()) throw std::runtime_error("maximal clique search failed: " + stats.error);
+  if (stats.cancelled) return {};
   if (!stats.complete) {
     std::ostringstream text;
     text << "clique search stopped by its " << (stats.hit_time_limit ? "time limit (cliques.time_limit)" : "")
@@ -99,7 +110,7 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
   std::vector<SelectedClique> cliques = selector.selected();
   if (params.selection.normal_consistency) {
     if (c.hasNormals()) {
-      cliques = normalConsistentCliques(cliques, c, params.selection.normal_consistency_threshold);
+      cliques = normalConsistentCliques(cliques, c, params.selection.normal_consistency_threshold, stop);
     } else {
       result.warnings.push_back(
           "selection.normal_consistency is on but the correspondences carry no normals: skipped");
@@ -117,21 +128,24 @@ struct BestHypothesis {
   bool found = false;
 };
 
+// Stops early, with a partial result the caller drops, when `stop` is raised.
 BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const CorrespondenceSet& c,
                              const std::vector<double>& weights, const HypothesisEvaluator& evaluator,
-                             int threads, MacResult& result) {
+                             int threads, const StopFlag* stop, MacResult& result) {
   auto start = Clock::now();
   const int count = static_cast<int>(cliques.size());
   std::vector<std::optional<Eigen::Isometry3d>> transforms(count);
 #pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
-  for (int h = 0; h < count; ++h) transforms[h] = estimateRigidTransform(c, cliques[h].nodes, weights);
+  for (int h = 0; h < count; ++h) {
+    if (!stopRequested(stop)) transforms[h] = estimateRigidTransform(c, cliques[h].nodes, weights);
+  }
   result.times.hypotheses_ms = millisecondsSince(start);
 
   start = Clock::now();
   std::vector<HypothesisScore> scores(count);
 #pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
   for (int h = 0; h < count; ++h) {
-    if (transforms[h]) scores[h] = evaluator.score(*transforms[h]);
+    if (transforms[h] && !stopRequested(stop)) scores[h] = evaluator.score(*transforms[h]);
   }
   BestHypothesis best;
   for (int h = 0; h < count; ++h) {
@@ -178,26 +192,35 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
   const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
-  if (stopped(stop, result, "the compatibility graph")) return;
+  if (stopped(stop, result, "the start")) return;
 
   auto start = Clock::now();
-  FirstOrderGraph fog = buildFirstOrderGraph(c, params.graph, threads);
-  result.counters.graph_nodes = fog.reduced ? fog.reduced_to : c.size();
+  FirstOrderGraph fog = buildFirstOrderGraph(c, params.graph, threads, stop);
+  if (stopped(stop, result, "the compatibility graph")) return;
+  result.counters.graph_nodes = fog.reduced ? fog.reduced_to : fog.sampled ? fog.sampled_to : c.size();
   result.counters.first_order_edges = fog.graph.numEdges();
+  if (fog.sampled) {
+    result.graph_reduced = true;
+    result.warnings.push_back(std::to_string(c.size()) +
+                              " correspondences over graph.max_correspondences: the compatibility graph is "
+                              "built on " +
+                              std::to_string(fog.sampled_to) + " of them, evenly spaced (all are scored)");
+  }
   if (fog.reduced) {
     result.graph_reduced = true;
-    result.warnings.push_back("compatibility graph over graph.max_edges: built on the " +
-                              std::to_string(fog.reduced_to) +
-                              " correspondences of highest estimated degree");
+    result.warnings.push_back("compatibility graph over graph.max_edges (" +
+                              std::to_string(fog.compatible_pairs) + " compatible pairs): built on the " +
+                              std::to_string(fog.reduced_to) + " correspondences of highest degree");
   }
   result.times.graph_ms = millisecondsSince(start);
 
-  if (stopped(stop, result, "the second-order graph")) return;
   start = Clock::now();
   CompatibilityGraph graph = std::move(fog.graph);
   if (params.graph.second_order) {
-    graph = buildSecondOrderGraph(
-        boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, result), threads);
+    graph = boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, stop, result);
+    if (stopped(stop, result, "the second-order bound")) return;
+    graph = buildSecondOrderGraph(graph, threads, stop);
+    if (stopped(stop, result, "the second-order graph")) return;
   }
   if (params.graph.dense_mean_degree > 0.0 && graph.num_nodes > 0 &&
       2.0 * double(graph.numEdges()) / graph.num_nodes > params.graph.dense_mean_degree) {
@@ -216,8 +239,8 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
 
-  if (stopped(stop, result, "the clique search")) return;
-  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, result);
+  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, stop, result);
+  if (stopped(stop, result, "the clique search and selection")) return;
   if (cliques.empty()) {
     fail(result, RegistrationStatus::kNoClique,
          "no clique of " + std::to_string(params.cliques.min_clique_size) +
@@ -225,12 +248,12 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
 
-  if (stopped(stop, result, "the hypotheses")) return;
   const std::vector<double> weights = params.hypotheses.weighting == HypothesisWeighting::kEigenvector
-                                          ? principalEigenvector(graph)
+                                          ? principalEigenvector(graph, 50, stop)
                                           : std::vector<double>{};
   const HypothesisEvaluator evaluator(c, params.evaluation);
-  const BestHypothesis best = bestOfCliques(cliques, c, weights, evaluator, threads, result);
+  const BestHypothesis best = bestOfCliques(cliques, c, weights, evaluator, threads, stop, result);
+  if (stopped(stop, result, "the hypotheses")) return;
   if (!best.found || !(best.score.score > 0.0)) {
     fail(result, RegistrationStatus::kNoValidHypothesis,
          best.found ? "no hypothesis has an inlier within evaluation.inlier_threshold"
@@ -238,12 +261,13 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
 
-  if (stopped(stop, result, "the refinement")) return;
   start = Clock::now();
   RefinementOutcome refined{best.transform, best.score, 0, 0};
   if (params.refinement.enabled) {
-    refined = refineTransform(best.transform, best.score, c, evaluator, params.evaluation, params.refinement);
+    refined =
+        refineTransform(best.transform, best.score, c, evaluator, params.evaluation, params.refinement, stop);
   }
+  if (stopped(stop, result, "the refinement")) return;
   result.counters.refinement_iterations = refined.iterations;
   result.times.refinement_ms = millisecondsSince(start);
 

@@ -31,6 +31,8 @@ std::vector<std::string> validateParams(const MacParams& p) {
   check.positive("graph.quadratic_threshold [m]", p.graph.quadratic_threshold);
   check.require(p.graph.t_cmp > 0.0 && p.graph.t_cmp < 1.0, "graph.t_cmp", p.graph.t_cmp,
                 "in (0, 1); 0.99 is the paper's default, lower it for few or very noisy correspondences");
+  check.require(p.graph.max_correspondences == 0 || p.graph.max_correspondences >= 1000,
+                "graph.max_correspondences", double(p.graph.max_correspondences), "0 (no bound) or >= 1000");
   check.require(p.graph.max_edges >= 1000, "graph.max_edges", double(p.graph.max_edges), ">= 1000");
   check.require(p.graph.max_second_order_work >= 1e5, "graph.max_second_order_work",
                 p.graph.max_second_order_work, ">= 1e5");

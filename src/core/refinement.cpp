@@ -7,12 +7,12 @@ namespace mac_registration {
 RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const HypothesisScore& initial_score,
                                   const CorrespondenceSet& correspondences,
                                   const HypothesisEvaluator& evaluator, const EvaluationParams& evaluation,
-                                  const RefinementParams& params) {
+                                  const RefinementParams& params, const StopFlag* stop) {
   RefinementOutcome best;
   best.T_target_source = initial;
   best.score = initial_score;
   const double tau = evaluation.inlier_threshold;
-  for (int round = 0; round < params.max_iterations; ++round) {
+  for (int round = 0; round < params.max_iterations && !stopRequested(stop); ++round) {
     best.iterations = round + 1;
     const std::vector<int> inliers = evaluator.inliers(best.T_target_source);
     const std::vector<double> residuals = evaluator.residuals(best.T_target_source);

@@ -2,8 +2,10 @@
 // never in a crash, a NaN pose or an uninitialized one.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
+#include <thread>
 
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
@@ -27,6 +29,37 @@ TEST(BadInput, RaisedStopFlagCancelsWithoutAPose) {
   const StopFlag stop{true};
   const MacResult result = registerCorrespondences(randomRigidSet(200, 3), test::roomScaleParams(), &stop);
   expectFailure(result, RegistrationStatus::kCancelled);
+}
+
+// Registers on this thread while another raises the flag once the registration is under way (100 ms: far
+// less than either case takes, whatever the machine), as a shutdown would.
+MacResult registerAndStopMidway(const CorrespondenceSet& c, const MacParams& params) {
+  StopFlag stop{false};
+  std::thread stopper([&stop] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    stop = true;
+  });
+  const MacResult result = registerCorrespondences(c, params, &stop);
+  stopper.join();
+  return result;
+}
+
+TEST(BadInput, StopFlagRaisedDuringALongRegistrationCancelsIt) {
+  // 200 000 correspondences with edges so short that no pair is compatible: the first-order pass tests
+  // all 2e10 pairs, tens of seconds unless the flag ends it.
+  const CorrespondenceSet large =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(200000, 0.05, 5)).correspondences;
+  MacParams sparse = test::roomScaleParams();
+  sparse.graph.gaussian_sigma = 1e-6;
+  sparse.graph.max_correspondences = 0;  // no bound
+  expectFailure(registerAndStopMidway(large, sparse), RegistrationStatus::kCancelled);
+
+  // The same set with its usual thresholds: a dense consensus, stopped in whichever stage it has reached.
+  expectFailure(registerAndStopMidway(large, test::roomScaleParams()), RegistrationStatus::kCancelled);
+
+  // Nothing is left behind: the next registration succeeds.
+  const MacResult after = registerCorrespondences(randomRigidSet(200, 3), test::roomScaleParams());
+  EXPECT_TRUE(after.success) << after.message;
 }
 
 TEST(BadInput, FewerThanThreeCorrespondences) {
@@ -53,6 +86,47 @@ TEST(BadInput, InvalidParametersNameTheParameter) {
   expectFailure(result, RegistrationStatus::kInvalidParameters);
   EXPECT_NE(result.message.find("graph.t_cmp"), std::string::npos);
   EXPECT_NE(result.message.find("evaluation.inlier_threshold"), std::string::npos);
+
+  params = MacParams{};
+  params.graph.max_correspondences = 999;
+  const MacResult capped = registerCorrespondences(randomRigidSet(50, 1), params);
+  expectFailure(capped, RegistrationStatus::kInvalidParameters);
+  EXPECT_NE(capped.message.find("graph.max_correspondences"), std::string::npos);
+}
+
+bool hasWarningAbout(const MacResult& result, const std::string& parameter) {
+  for (const auto& warning : result.warnings) {
+    if (warning.find(parameter) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST(BadInput, LargeEasySetRegistersOnASubset) {
+  // 300 000 correspondences, 5 % inliers: the pair test runs on 50 000 of them (2 500 inliers), whose
+  // consensus is still far over graph.max_edges and reduced to the correspondences of highest degree.
+  const SyntheticProblem problem =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(300000, 0.05, 21));
+  const MacResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  ASSERT_TRUE(result.success) << toString(result.status) << ": " << result.message;
+  EXPECT_TRUE(result.graph_reduced);
+  EXPECT_TRUE(hasWarningAbout(result, "graph.max_correspondences"));
+  EXPECT_TRUE(hasWarningAbout(result, "graph.max_edges"));
+  EXPECT_GT(result.counters.inliers, 14000u);  // of 15 000, counted over all 300 000
+  EXPECT_LT(rotationErrorDeg(result.T_target_source, problem.T_target_source), 0.5);
+  EXPECT_LT(translationError(result.T_target_source, problem.T_target_source), 0.01);
+}
+
+TEST(BadInput, LargeSparseSetEndsOnASubset) {
+  // 200 000 correspondences of which no pair is compatible: the pair test is bounded to 50 000 of them
+  // (1.25e9 pairs instead of 2e10), and the answer is an explicit empty graph.
+  const CorrespondenceSet c =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(200000, 0.05, 23)).correspondences;
+  MacParams params = test::roomScaleParams();
+  params.graph.gaussian_sigma = 1e-6;
+  const MacResult result = registerCorrespondences(c, params);
+  expectFailure(result, RegistrationStatus::kEmptyGraph);
+  EXPECT_EQ(result.counters.graph_nodes, 50000u);
+  EXPECT_TRUE(hasWarningAbout(result, "graph.max_correspondences"));
 }
 
 TEST(BadInput, AllPointsEqualIsDegenerate) {

@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <future>
 #include <memory>
@@ -95,6 +97,17 @@ CompatibilityGraph disjointTriangles(int count) {
   return graphFromEdges(3 * count, edges);
 }
 
+TEST(CliqueSearch, IsolatedNodesKeepTheirIdsAndCostNothing) {
+  // A triangle among 300 000 nodes, the shape of a graph reduced from a large correspondence set. Handed
+  // to igraph whole, its enumeration would be quadratic in the node count (over 10 s).
+  CliqueSearchParams params;
+  params.time_limit = 10.0;
+  const auto result = search(graphFromEdges(300000, {{5, 100000}, {5, 299999}, {100000, 299999}}), params);
+  EXPECT_EQ(result.cliques, (std::vector<Clique>{{5, 100000, 299999}}));
+  EXPECT_TRUE(result.stats.complete);
+  EXPECT_EQ(result.stats.nodes_searched, 3u);
+}
+
 TEST(CliqueSearch, CountLimitWithoutPruning) {
   CliqueSearchParams params;
   params.max_cliques = 1;
@@ -162,6 +175,73 @@ TEST(CliqueSearch, MaxDegeneracyThinsDenseCores) {
   const auto full = search(graphFromEdges(6, edges), params);
   EXPECT_EQ(full.stats.thinned_nodes, 0u);
   EXPECT_EQ(full.cliques, (std::vector<Clique>{{0, 1, 2, 3, 4}}));
+}
+
+// A cycle has no triangle: the search streams nothing, so only igraph's interruption checks (in its core
+// decomposition, its set-up and its loop over vertices) can stop it at the deadline.
+CompatibilityGraph cycle(int n) {
+  std::vector<std::pair<int, int>> edges;
+  for (int i = 0; i + 1 < n; ++i) edges.push_back({i, i + 1});
+  edges.push_back({0, n - 1});
+  return graphFromEdges(n, edges);
+}
+
+TEST(CliqueSearch, InterruptedSearchesLeaveIgraphClean) {
+  // A thousand searches stopped at deadlines spread from before igraph starts to after it finishes, so
+  // that igraph is interrupted inside nested functions as well as in its main loop. An interrupted igraph
+  // function leaves its temporaries on igraph's cleanup stack; left there, they either fill it (igraph
+  // then aborts the process) or are freed by the next igraph error after their frames are gone.
+  const CompatibilityGraph graph = cycle(4000);
+  CliqueSearchParams params;
+  params.max_pruning_rounds = 0;
+  int interrupted = 0;
+  for (int call = 0; call < 1000; ++call) {
+    params.time_limit = 1e-7 * std::pow(10.0, 4.0 * (call % 100) / 99.0);  // 0.1 us .. 1 ms
+    const CliqueSearchStats stats = searchMaximalCliques(graph, params, [](const int*, std::size_t) {});
+    ASSERT_TRUE(stats.error.empty()) << "call " << call << ": " << stats.error;
+    ASSERT_EQ(stats.stale_igraph_cleanups, 0) << "call " << call << " left igraph temporaries behind";
+    ASSERT_EQ(igraphCleanupStackSize(), 0) << "call " << call;
+    EXPECT_EQ(stats.cliques, 0u);
+    interrupted += stats.hit_time_limit;
+  }
+  EXPECT_GT(interrupted, 0);  // a 0.1 us budget is over before igraph starts
+
+  // igraph still works, errors included.
+  const auto result = search(k4AndPendantTriangle(), {});
+  EXPECT_EQ(result.cliques, (std::vector<Clique>{{0, 1, 2, 3}, {3, 4, 5}}));
+  EXPECT_TRUE(result.stats.complete);
+  EXPECT_EQ(igraphCleanupStackSize(), 0);
+}
+
+TEST(CliqueSearch, RaisedStopFlagCancelsBeforeSearching) {
+  const StopFlag stop{true};
+  std::size_t streamed = 0;
+  const CliqueSearchStats stats = searchMaximalCliques(
+      disjointTriangles(8), {}, [&](const int*, std::size_t) { ++streamed; }, &stop);
+  EXPECT_TRUE(stats.cancelled);
+  EXPECT_FALSE(stats.complete);
+  EXPECT_EQ(streamed, 0u);
+}
+
+TEST(CliqueSearch, StopFlagRaisedDuringTheSearchEndsIt) {
+  // Raised by the visitor itself: the search stops after the clique that raised it, not at a bound.
+  StopFlag stop{false};
+  std::size_t streamed = 0;
+  CliqueSearchParams params;
+  params.time_limit = 30.0;
+  const CliqueSearchStats stats = searchMaximalCliques(
+      disjointTriangles(8), params,
+      [&](const int*, std::size_t) {
+        ++streamed;
+        stop = true;
+      },
+      &stop);
+  EXPECT_TRUE(stats.cancelled);
+  EXPECT_FALSE(stats.complete);
+  EXPECT_FALSE(stats.hit_time_limit);
+  EXPECT_EQ(stats.pruning_rounds, 0);
+  EXPECT_EQ(streamed, 1u);
+  EXPECT_EQ(igraphCleanupStackSize(), 0);
 }
 
 TEST(CliqueSearch, ThrowingVisitorPropagatesAndReleasesLock) {

@@ -161,11 +161,96 @@ TEST(FirstOrderGraph, MaxEdgesBound) {
   EXPECT_TRUE(fog.reduced);
   EXPECT_LE(fog.graph.numEdges(), 1000u);
   EXPECT_EQ(fog.graph.num_nodes, 200);  // node ids stay correspondence indices
-  // sqrt(2 * 1000) = 44 nodes kept; all have the same estimated degree, so ties keep nodes 0..43 and
+  // sqrt(2 * 1000) = 44 nodes kept; all have the same degree (199), so ties keep nodes 0..43 and
   // they form a complete graph of 44 * 43 / 2 = 946 edges.
   EXPECT_EQ(fog.reduced_to, 44u);
   EXPECT_EQ(fog.graph.numEdges(), 946u);
   for (int i = 0; i < 200; ++i) EXPECT_EQ(fog.graph.degree(i), i < 44 ? 43 : 0) << "node " << i;
+}
+
+TEST(FirstOrderGraph, MaxEdgesKeepsTheNodesOfHighestDegree) {
+  // 300 exact inliers (44 850 edges among them) and 1700 outliers compatible with a few % of the others.
+  const CorrespondenceSet c = rigidProblem(2000, 300, 5);
+  GraphParams params;
+  params.max_edges = 20000;  // keeps sqrt(40 000) = 200 nodes: inliers only, all compatible with each other
+  const FirstOrderGraph fog = buildFirstOrderGraph(c, params, 2);
+  expectValidGraph(fog.graph);
+  ASSERT_TRUE(fog.reduced);
+  EXPECT_FALSE(fog.sampled);
+  EXPECT_GE(fog.compatible_pairs, 300u * 299u / 2u);  // every pair counted, past max_edges
+  EXPECT_EQ(fog.reduced_to, 200u);
+  EXPECT_EQ(fog.graph.numEdges(), 200u * 199u / 2u);
+  for (int i = 0; i < fog.graph.num_nodes; ++i) {
+    if (fog.graph.degree(i) > 0) {
+      EXPECT_LT(i, 300) << "outlier " << i << " kept";
+    }
+  }
+}
+
+TEST(FirstOrderGraph, MaxCorrespondencesBuildsOnAnEvenlySpacedSubset) {
+  const CorrespondenceSet c = rigidProblem(2500, 500, 11);
+  GraphParams params;
+  params.max_correspondences = 1000;
+  const FirstOrderGraph fog = buildFirstOrderGraph(c, params, 2);
+  expectValidGraph(fog.graph);
+  ASSERT_TRUE(fog.sampled);
+  EXPECT_FALSE(fog.reduced);
+  EXPECT_EQ(fog.sampled_to, 1000u);
+  ASSERT_EQ(fog.graph.num_nodes, 2500);  // node ids stay correspondence indices
+
+  // The same graph as one built on those correspondences alone: every 2.5th, 0, 2, 5, 7, 10, ...
+  std::vector<int> subset;
+  for (int k = 0; k < 1000; ++k) subset.push_back(k * 5 / 2);
+  CorrespondenceSet sub;
+  sub.source_points.resize(3, 1000);
+  sub.target_points.resize(3, 1000);
+  for (int k = 0; k < 1000; ++k) {
+    sub.source_points.col(k) = c.source_points.col(subset[k]);
+    sub.target_points.col(k) = c.target_points.col(subset[k]);
+  }
+  params.max_correspondences = 0;  // no bound
+  const FirstOrderGraph reference = buildFirstOrderGraph(sub, params, 1);
+  EXPECT_FALSE(reference.sampled);
+  EXPECT_EQ(fog.graph.numEdges(), reference.graph.numEdges());
+  EXPECT_EQ(fog.compatible_pairs, reference.graph.numEdges());
+  EXPECT_GE(fog.graph.numEdges(), 200u * 199u / 2u);  // the 200 inliers among them
+  std::vector<char> in_subset(2500, 0);
+  for (int node : subset) in_subset[node] = 1;
+  for (int i = 0; i < 2500; ++i) {
+    if (!in_subset[i]) {
+      EXPECT_EQ(fog.graph.degree(i), 0) << "node " << i;
+    }
+  }
+  for (int k = 0; k < 1000; ++k) {
+    ASSERT_EQ(fog.graph.degree(subset[k]), reference.graph.degree(k)) << "node " << subset[k];
+    for (auto p = reference.graph.offsets[k]; p < reference.graph.offsets[k + 1]; ++p) {
+      // Centred on another centroid, the floats differ in their last bits: the weights by ~1e-6.
+      EXPECT_NEAR(fog.graph.weight(subset[k], subset[reference.graph.neighbours[p]]),
+                  reference.graph.weights[p], 1e-5);
+    }
+  }
+}
+
+TEST(FirstOrderGraph, BoundsActTheSameForOneAndTwoThreads) {
+  const CorrespondenceSet c = rigidProblem(2500, 500, 13);
+  GraphParams params;
+  params.max_correspondences = 1000;
+  params.max_edges = 5000;
+  const FirstOrderGraph one = buildFirstOrderGraph(c, params, 1);
+  const FirstOrderGraph two = buildFirstOrderGraph(c, params, 2);
+  ASSERT_TRUE(one.sampled && one.reduced);
+  EXPECT_EQ(one.compatible_pairs, two.compatible_pairs);
+  EXPECT_EQ(one.reduced_to, two.reduced_to);
+  EXPECT_EQ(one.graph.neighbours, two.graph.neighbours);
+  EXPECT_EQ(one.graph.weights, two.graph.weights);
+}
+
+TEST(FirstOrderGraph, RaisedStopFlagLeavesNoEdges) {
+  const StopFlag stop{true};
+  const FirstOrderGraph fog = buildFirstOrderGraph(rigidProblem(300, 210, 7), GraphParams{}, 2, &stop);
+  EXPECT_TRUE(fog.cancelled);
+  EXPECT_EQ(fog.graph.num_nodes, 300);
+  EXPECT_EQ(fog.graph.numEdges(), 0u);
 }
 
 // Two triangles sharing edge 1-2 (0-1-2 and 1-2-3) plus a pendant edge 3-4 in no triangle.

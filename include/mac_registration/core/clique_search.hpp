@@ -6,6 +6,7 @@
 
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -22,7 +23,9 @@ struct CliqueSearchStats {
   int degeneracy = 0;              // of the graph given
   std::size_t thinned_nodes = 0;   // left out of the search by the max_degeneracy bound
   std::size_t nodes_searched = 0;  // non-isolated nodes in the last search
-  std::string error;               // igraph's message when a search failed (not a bound), else empty
+  bool cancelled = false;          // the stop flag ended the search
+  int stale_igraph_cleanups = 0;  // entries igraph left on its cleanup stack, dropped (0 unless igraph erred)
+  std::string error;              // igraph's message when a search failed (not a bound), else empty
 };
 
 // Maximal cliques of size >= min_clique_size through igraph's callback search (Eppstein's Bron-Kerbosch
@@ -31,8 +34,13 @@ struct CliqueSearchStats {
 // is pruned to its strongest nodes (highest sum of edge weights) and searched again, up to max_pruning_rounds
 // times, so that a dense clean graph costs a bounded time instead of an exponential one. Cliques of a pruned
 // graph are cliques of the full graph too, so everything streamed stays valid. Serialized process-wide
-// (igraph is not thread-safe); never aborts the process on an igraph error.
+// (igraph is not thread-safe); never aborts the process on an igraph error. A raised `stop` ends the search
+// within a clique or an igraph interruption check, with `cancelled` set.
 CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
-                                       const CliqueVisitor& visit);
+                                       const CliqueVisitor& visit, const StopFlag* stop = nullptr);
+
+// Entries on igraph's process-wide cleanup stack, read under the igraph lock: 0 whenever no search is
+// running, or a later igraph error would free memory that is no longer igraph's.
+int igraphCleanupStackSize();
 
 }  // namespace mac_registration

@@ -5,6 +5,7 @@
 
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -42,9 +43,10 @@ class NodeGuidedSelector {
 
 // Keeps the cliques whose every pair of correspondences is normal-consistent (paper Eq. 5):
 // |sin a_s - sin a_t| < threshold, a_s the angle between the two source normals, a_t between the target ones.
+// A raised `stop` ends the filter early with the cliques checked so far.
 std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
                                                     const CorrespondenceSet& correspondences,
-                                                    double threshold);
+                                                    double threshold, const StopFlag* stop = nullptr);
 
 // The k heaviest cliques (all when k == 0), heaviest first; equal weights keep their order.
 std::vector<SelectedClique> heaviestCliques(std::vector<SelectedClique> cliques, std::size_t k);

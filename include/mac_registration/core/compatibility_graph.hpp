@@ -6,6 +6,7 @@
 
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -30,23 +31,36 @@ struct UpperEdge {
 };
 CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vector<UpperEdge>>& rows);
 
-// Outcome of building the first-order graph, with what the bounds did.
+// Outcome of building the first-order graph, with what the bounds did. Nodes of the graph are all the
+// correspondences; those a bound left out are isolated.
 struct FirstOrderGraph {
   CompatibilityGraph graph;
-  // Nodes of the graph are correspondences; when the edge bound forced a reduction, the graph holds only
-  // the kept ones (others are isolated) and reduced_to says how many were kept.
+  // More than max_correspondences were given: the pairs were tested among an evenly spaced subset of
+  // sampled_to of them.
+  bool sampled = false;
+  std::size_t sampled_to = 0;
+  // Compatible pairs found by that test, every one counted even past max_edges.
+  std::size_t compatible_pairs = 0;
+  // More than max_edges compatible pairs: the graph holds only the reduced_to correspondences of highest
+  // degree (the true degree, from the counts of the full pass).
   bool reduced = false;
   std::size_t reduced_to = 0;
+  // The stop flag ended the pass: the graph is incomplete and not to be used.
+  bool cancelled = false;
 };
 
 // First-order compatibility graph (FOG, paper Eq. 1-2): an edge where the score is >= t_cmp, weighted by
 // the score. Both scores are monotone in d, so each pair is tested against a precomputed bound on d^2.
+// O(min(N, max_correspondences)^2) pair tests, then O(sqrt(max_edges)^2) more if the edges overflow; memory
+// O(N + max_edges). The same graph whatever num_threads. A raised `stop` ends the pass within a row of pairs.
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads);
+                                     int num_threads, const StopFlag* stop = nullptr);
 
 // Second-order weights (paper Eq. 4): w_ij = S_ij * sum_k S_ik S_jk over common neighbours k, on the
-// sparse lists. Edges in no triangle get weight 0 and are removed.
-CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads);
+// sparse lists. Edges in no triangle get weight 0 and are removed. A raised `stop` ends the pass within a
+// row, leaving the graph incomplete: the caller checks the flag before using it.
+CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
+                                         const StopFlag* stop = nullptr);
 
 // Multiply-adds buildSecondOrderGraph would spend on this graph.
 double secondOrderWork(const CompatibilityGraph& graph);

@@ -6,6 +6,7 @@
 
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -19,7 +20,9 @@ std::optional<Eigen::Isometry3d> estimateRigidTransform(const CorrespondenceSet&
                                                         const std::vector<double>& weights = {});
 
 // Principal eigenvector of the graph's weight matrix by power iteration, scaled to max 1: the paper's
-// correspondence weights for weighted SVD. Nodes outside every edge get weight 0.
-std::vector<double> principalEigenvector(const CompatibilityGraph& graph, int iterations = 50);
+// correspondence weights for weighted SVD. Nodes outside every edge get weight 0. A raised `stop` ends the
+// iteration early (the caller checks the flag before using the weights).
+std::vector<double> principalEigenvector(const CompatibilityGraph& graph, int iterations = 50,
+                                         const StopFlag* stop = nullptr);
 
 }  // namespace mac_registration

@@ -62,7 +62,7 @@ struct MacResult {
   std::vector<int> inlier_indices;     // indices into the caller's correspondences
   double score = 0.0;                  // evaluation metric of T_target_source
   bool clique_search_complete = true;  // false when a bound stopped the enumeration
-  bool graph_reduced = false;          // true when a density bound removed correspondences
+  bool graph_reduced = false;          // a size or density bound left correspondences out of the graph
   RegistrationCounters counters;
   StageTimes times;
 };

@@ -5,6 +5,7 @@
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/evaluation.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
 
@@ -17,10 +18,10 @@ struct RefinementOutcome {
 
 // Iteratively reweighted SVD on the inliers of the current transform, weights 1 / (1 + (r / tau)^2).
 // Stops when a round does not raise the score and returns the best transform seen, never a worse one than
-// `initial`.
+// `initial`. A raised `stop` ends it after the current round.
 RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const HypothesisScore& initial_score,
                                   const CorrespondenceSet& correspondences,
                                   const HypothesisEvaluator& evaluator, const EvaluationParams& evaluation,
-                                  const RefinementParams& params);
+                                  const RefinementParams& params, const StopFlag* stop = nullptr);
 
 }  // namespace mac_registration
