@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "benchmark_runner.hpp"
-#include "cli_config.hpp"
+#include "mac_registration/config/preset_file.hpp"
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "synthetic.hpp"
@@ -42,10 +42,10 @@ struct Options {
   int repeats = 5;
   std::string mesh = "test/data/teaser_bun_zipper_res3.ply";
   std::string csv;
-  MacParams params;
+  RegistrationConfig config;  // what --config and --set change
   std::vector<std::string> positional;
   // dataset modes
-  BenchmarkSettings dataset;  // its mac field is filled from `params` (what --config/--set change)
+  BenchmarkSettings dataset;  // its mac and features are filled from `config`
   std::string subset_filter, subset_name;
   std::size_t limit = 0;
 };
@@ -73,13 +73,11 @@ void applySetting(Options& o, const std::string& assignment) {
   if (assignment.rfind("benchmark.", 0) == 0 && eq != std::string::npos)
     setBenchmarkParam(o.dataset, assignment.substr(0, eq), assignment.substr(eq + 1));
   else
-    applyAssignment(o.params, o.dataset.features, assignment);
+    applyAssignment(o.config, assignment);
 }
 
 void loadConfig(Options& o, const std::string& path) {
-  loadParamsFile(o.params, path);
-  loadFeatureParamsFile(o.dataset.features, path);
-  readPresetFile(path, [&](const std::string& key, const std::string& value) {
+  loadPresetFile(o.config, path, [&](const std::string& key, const std::string& value) {
     if (key.rfind("benchmark.", 0) == 0) setBenchmarkParam(o.dataset, key, value);
   });
 }
@@ -272,8 +270,8 @@ std::ofstream openCsv(const std::string& path) {
 int runSynthetic(Options o, bool params_given) {
   const TriangleMesh mesh = readAsciiPlyMesh(o.mesh);
   if (!params_given) {
-    o.params.graph.gaussian_sigma = 50.0 * o.noise;
-    o.params.evaluation.inlier_threshold = 10.0 * o.noise;
+    o.config.mac.graph.gaussian_sigma = 50.0 * o.noise;
+    o.config.mac.evaluation.inlier_threshold = 10.0 * o.noise;
   }
   std::ofstream csv;
   if (!o.csv.empty()) {
@@ -281,9 +279,9 @@ int runSynthetic(Options o, bool params_given) {
     csv << kHeader << "\n";
   }
   std::cout << "synthetic: bunny mesh scaled to 3 m, noise " << o.noise << " m, " << o.repeats
-            << " repeats per case (seeds 1..), gaussian_sigma " << o.params.graph.gaussian_sigma
-            << " m, t_cmp " << o.params.graph.t_cmp << ", tau " << o.params.evaluation.inlier_threshold
-            << " m\n";
+            << " repeats per case (seeds 1..), gaussian_sigma " << o.config.mac.graph.gaussian_sigma
+            << " m, t_cmp " << o.config.mac.graph.t_cmp << ", tau "
+            << o.config.mac.evaluation.inlier_threshold << " m\n";
   printTableHeader(std::cout);
   for (int n : o.sizes) {
     for (double ratio : o.ratios) {
@@ -297,7 +295,7 @@ int runSynthetic(Options o, bool params_given) {
           spec.seed = static_cast<std::uint32_t>(k + 1);
           const SyntheticProblem problem = makeSyntheticProblem(mesh, spec);
           truth = problem.T_target_source;
-          return registerCorrespondences(problem.correspondences, o.params);
+          return registerCorrespondences(problem.correspondences, o.config.mac);
         });
       });
       printRow(std::cout, "synthetic", n, ratio, o.noise, r);
@@ -314,7 +312,7 @@ int runCorrespondences(const Options& o) {
   const CaseResult r = inChild([&] {
     return measure(o.repeats, [&](int, Eigen::Isometry3d& truth) {
       truth = gt;
-      return registerCorrespondences(c, o.params);
+      return registerCorrespondences(c, o.config.mac);
     });
   });
   std::cout << "correspondences: " << o.positional[0] << " (" << c.size() << "), " << o.repeats
@@ -354,8 +352,8 @@ std::string describeMethod(const MethodOutcome& m) {
 
 // What a reader of the table needs to reproduce it: the front end, MAC's main knobs and the baseline.
 void printSettings(std::ostream& out, const Options& o, bool baseline) {
-  const FeatureParams& f = o.dataset.features;
-  const GraphParams& g = o.params.graph;
+  const FeatureParams& f = o.config.features;
+  const GraphParams& g = o.config.mac.graph;
   out << "front end: voxel " << f.voxel_size << " m, normal radius " << f.normal_radius_factor * f.voxel_size
       << " m, FPFH radius " << f.feature_radius_factor * f.voxel_size << " m, max " << f.max_correspondences
       << " correspondences, mutual " << (f.mutual_filter ? "on" : "off") << ", ratio test " << f.ratio_test
@@ -365,7 +363,7 @@ void printSettings(std::ostream& out, const Options& o, bool baseline) {
     out << f.gaussian_sigma_resolutions << " x resolution";
   else
     out << g.gaussian_sigma << " m";
-  out << ", t_cmp " << g.t_cmp << ", tau " << o.params.evaluation.inlier_threshold << " m\n";
+  out << ", t_cmp " << g.t_cmp << ", tau " << o.config.mac.evaluation.inlier_threshold << " m\n";
   out << "baseline: ";
   if (baseline)
     out << "RANSAC (PCL), at most " << o.dataset.ransac_max_iterations << " iterations\n";
@@ -400,7 +398,8 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
   const bool baseline = o.dataset.baseline && benchmarkHasFeatures();
   std::cout << "dataset: " << source << ", " << pairs.size() << " pairs\n";
   printSettings(std::cout, o, baseline);
-  o.dataset.mac = o.params;
+  o.dataset.mac = o.config.mac;
+  o.dataset.features = o.config.features;
   o.dataset.baseline = baseline;
 
   std::vector<PairOutcome> outcomes;

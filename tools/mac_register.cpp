@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "cli_config.hpp"
+#include "mac_registration/config/preset_file.hpp"
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "result_report.hpp"
@@ -116,16 +116,13 @@ void writeCorrespondences(const std::string& path, const mac_registration::Corre
 int main(int argc, char** argv) {
   using namespace mac_registration;
   Options options;
-  MacParams params;
-  FeatureParams feature_params;
+  RegistrationConfig config;
   CorrespondenceSet correspondences;
   try {
     options = parseArguments(argc, argv);
-    if (!options.config.empty()) {
-      loadParamsFile(params, options.config);
-      loadFeatureParamsFile(feature_params, options.config);
-    }
-    for (const auto& assignment : options.overrides) applyAssignment(params, feature_params, assignment);
+    // A preset's other sections (a benchmark's criterion, say) are not for registering.
+    if (!options.config.empty()) loadPresetFile(config, options.config);
+    for (const auto& assignment : options.overrides) applyAssignment(config, assignment);
     if (!options.correspondences.empty()) correspondences = readCorrespondencesFile(options.correspondences);
   } catch (const std::exception& e) {
     std::cerr << "mac_register: " << e.what() << "\n" << kUsage;
@@ -134,14 +131,14 @@ int main(int argc, char** argv) {
 
   MacResult result;
   if (!options.correspondences.empty()) {
-    result = registerCorrespondences(correspondences, params);
+    result = registerCorrespondences(correspondences, config.mac);
   } else {
 #ifdef MAC_REGISTRATION_WITH_FEATURES
     CloudRegistrationResult cloud_result;
     try {
       const PointCloud::Ptr source = loadCloud(options.clouds[0]);
       const PointCloud::Ptr target = loadCloud(options.clouds[1]);
-      cloud_result = registerClouds(*source, *target, feature_params, params);
+      cloud_result = registerClouds(*source, *target, config.features, config.mac);
       if (!options.save_correspondences.empty())
         writeCorrespondences(options.save_correspondences, cloud_result.features.correspondences);
     } catch (const std::exception& e) {

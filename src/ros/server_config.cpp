@@ -2,61 +2,63 @@
 
 #include <XmlRpcValue.h>
 
+#include <set>
 #include <sstream>
 
-#include "cli_config.hpp"
+#include "mac_registration/config/parameter_table.hpp"
 
 namespace mac_registration {
 namespace {
 
-std::string toText(XmlRpc::XmlRpcValue& value) {
+// The parameter server's types map onto the table's; a string where a number belongs is refused there.
+ParameterValue toParameterValue(XmlRpc::XmlRpcValue& value) {
   switch (value.getType()) {
     case XmlRpc::XmlRpcValue::TypeBoolean:
-      return static_cast<bool>(value) ? "true" : "false";
+      return static_cast<bool>(value);
     case XmlRpc::XmlRpcValue::TypeInt:
-      return std::to_string(static_cast<int>(value));
-    case XmlRpc::XmlRpcValue::TypeDouble: {
-      std::ostringstream text;
-      text.precision(17);
-      text << static_cast<double>(value);
-      return text.str();
-    }
+      return static_cast<long long>(static_cast<int>(value));
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      return static_cast<double>(value);
     case XmlRpc::XmlRpcValue::TypeString:
       return static_cast<std::string>(value);
     default:
-      throw std::invalid_argument("unsupported value type");
+      throw std::invalid_argument("not a number, boolean or name");
   }
 }
 
-// The algorithm's sections go through the same key tables as the command-line presets, so a key means the
-// same in both.
-void loadAlgorithmSections(const ros::NodeHandle& nh, MacParams& params, FeatureParams& features,
-                           std::vector<std::string>& problems) {
-  for (const std::string section :
-       {"graph", "cliques", "selection", "hypotheses", "evaluation", "refinement", "features"}) {
+// Every table key "section.name" is read from ~section/name (and "num_threads" from ~num_threads) with its
+// type; a name in one of the table's sections that the table does not know is reported, so that a typo
+// does not silently leave a default in place.
+void loadAlgorithmParams(const ros::NodeHandle& nh, RegistrationConfig& config,
+                         std::vector<std::string>& problems) {
+  std::set<std::string> sections;
+  for (const auto& p : parameterTable()) {
+    const auto dot = p.key.find('.');
+    std::string name = p.key;
+    if (dot != std::string::npos) {
+      sections.insert(p.key.substr(0, dot));
+      name[dot] = '/';
+    }
+    XmlRpc::XmlRpcValue value;
+    if (!nh.getParam(name, value)) continue;
+    try {
+      setParameter(config, p.key, toParameterValue(value));
+    } catch (const std::exception& e) {
+      problems.push_back("~" + name + ": " + e.what());
+    }
+  }
+  for (const auto& section : sections) {
     XmlRpc::XmlRpcValue values;
     if (!nh.getParam(section, values)) continue;
     if (values.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
       problems.push_back("~" + section + " must be a dictionary of parameters");
       continue;
     }
-    for (auto& [name, value] : values) {
-      const std::string key = section + "." + name;
-      try {
-        if (section == "features") {
-          setFeatureParam(features, key, toText(value));
-        } else {
-          setParam(params, key, toText(value));
-        }
-      } catch (const std::exception& e) {
-        problems.push_back("~" + section + "/" + name + ": " + e.what());
-      }
+    for (auto& entry : values) {
+      if (!findParameter(section + "." + entry.first))
+        problems.push_back("~" + section + "/" + entry.first + ": unknown parameter");
     }
   }
-  int threads = params.num_threads;
-  nh.param("num_threads", threads, threads);
-  params.num_threads = threads;
-  features.num_threads = threads;
 }
 
 std::string number(double value) {
@@ -112,16 +114,17 @@ void loadNodeParams(const ros::NodeHandle& nh, NodeParams& p, std::vector<std::s
 
 std::vector<std::string> loadServerConfig(const ros::NodeHandle& nh, ServerConfig& config) {
   std::vector<std::string> problems;
-  loadAlgorithmSections(nh, config.mac, config.features, problems);
+  RegistrationConfig algorithm{config.mac, config.features};
+  loadAlgorithmParams(nh, algorithm, problems);
+  config.mac = algorithm.mac;
+  config.features = algorithm.features;
   loadNodeParams(nh, config.node, problems);
-  for (const auto& p : validateParams(config.mac)) problems.push_back(p);
-  for (const auto& p : validateFeatureParams(config.features)) problems.push_back(p);
+  for (const auto& p : validateConfig(algorithm)) problems.push_back(p);
   return problems;
 }
 
 std::string describeConfig(const ServerConfig& c) {
   std::ostringstream text;
-  const auto& g = c.mac.graph;
   text << "target_mode="
        << (c.node.target_mode == NodeParams::TargetMode::kLatest ? "latest" : "synchronized")
        << " publish_tf=" << (c.node.publish_tf ? "true" : "false")
@@ -130,19 +133,8 @@ std::string describeConfig(const ServerConfig& c) {
     text << " (odom_frame=" << c.node.odom_frame << ", re-sent at " << c.node.map_odom_rate
          << " Hz, stamped now + " << c.node.transform_tolerance << " s)";
   }
-  text << " service_threads=" << c.node.service_threads
-       << "\n  features: voxel_size=" << c.features.voxel_size << " m, normal radius x"
-       << c.features.normal_radius_factor << ", FPFH radius x" << c.features.feature_radius_factor
-       << ", max_correspondences=" << c.features.max_correspondences
-       << ", mutual=" << c.features.mutual_filter
-       << "\n  graph: " << (g.score == CompatibilityScore::kGaussian ? "gaussian sigma=" : "quadratic tau=")
-       << (g.score == CompatibilityScore::kGaussian ? g.gaussian_sigma : g.quadratic_threshold)
-       << " m, t_cmp=" << g.t_cmp << ", second_order=" << g.second_order
-       << "\n  cliques: min_size=" << c.mac.cliques.min_clique_size
-       << ", max_cliques=" << c.mac.cliques.max_cliques << ", time_limit=" << c.mac.cliques.time_limit
-       << " s, max_degeneracy=" << c.mac.cliques.max_degeneracy
-       << "\n  evaluation: tau=" << c.mac.evaluation.inlier_threshold
-       << " m, min_inliers=" << c.mac.evaluation.min_inliers << ", refinement=" << c.mac.refinement.enabled;
+  text << " service_threads=" << c.node.service_threads << "\n"
+       << describeConfig(RegistrationConfig{c.mac, c.features});
   return text.str();
 }
 

@@ -1,0 +1,80 @@
+#pragma once
+
+// The one home of the algorithm's parameters as seen from outside the code: every key of the presets, of
+// the tools' --set, of the ROS node's private parameters and of its start-up log is an entry of this table,
+// with its type, unit, documented range and a typed get/set. ROS-free and PCL-free.
+
+#include <functional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "mac_registration/core/parameters.hpp"
+#include "mac_registration/features/feature_params.hpp"
+
+namespace mac_registration {
+
+// Everything the registration reads: the MAC core's parameters and the PCL front end's.
+struct RegistrationConfig {
+  MacParams mac;
+  FeatureParams features;
+};
+
+enum class ParameterType {
+  kReal,     // double
+  kInteger,  // a whole number, may be negative in principle (ranges say otherwise)
+  kCount,    // a whole number >= 0 (a negative value would wrap around in a size_t)
+  kBool,
+  kChoice,  // one of `choices`
+};
+
+// A value as it comes from a typed source (the ROS parameter server) or is parsed from text.
+using ParameterValue = std::variant<bool, long long, double, std::string>;
+
+struct Parameter {
+  std::string key;  // "section.name" as in the presets and --set; the node reads ~section/name
+  ParameterType type;
+  std::string unit;  // "m", "s", "count", "x voxel_size", ... ; empty when the value has none
+  // The range validateParams()/validateFeatureParams() accept, for numbers: [min, max] (inclusive) as
+  // documented; dynamic_reconfigure uses the same bounds. A value of 0 may additionally mean "off" where
+  // the doc says so (zero_means_off).
+  double min = 0.0, max = 0.0;
+  bool zero_means_off = false;
+  std::vector<std::string> choices;  // kChoice only
+  std::string doc;                   // one line: what it does and which way to turn it
+  std::function<ParameterValue(const RegistrationConfig&)> get;
+  // Throws std::invalid_argument (without the key: callers add it) when the value has the wrong type.
+  std::function<void(RegistrationConfig&, const ParameterValue&)> set;
+};
+
+// Every parameter, in the order of the presets' sections.
+const std::vector<Parameter>& parameterTable();
+
+// The entry of `key`, or nullptr.
+const Parameter* findParameter(const std::string& key);
+
+// Parses `text` as a value of `parameter`'s type. Throws std::invalid_argument naming the key.
+ParameterValue parseParameterValue(const Parameter& parameter, const std::string& text);
+
+// The value as text, as a preset would hold it ("0.99", "true", "gaussian").
+std::string formatParameterValue(const ParameterValue& value);
+
+// Sets one parameter from text; throws std::invalid_argument naming the key for unknown keys and values
+// of the wrong type. Ranges are checked by validateConfig(), which sees all parameters at once.
+void setParameter(RegistrationConfig& config, const std::string& key, const std::string& text);
+
+// The same from a typed value (e.g. from the ROS parameter server): a real accepts an integer, a count
+// refuses a negative or fractional number, a choice must be one of its names.
+void setParameter(RegistrationConfig& config, const std::string& key, const ParameterValue& value);
+
+// One "KEY=VALUE" of a tool's --set.
+void applyAssignment(RegistrationConfig& config, const std::string& assignment);
+
+// Every problem with the configuration, each a sentence naming the parameter, its value and the allowed
+// range (validateParams() of the core and validateFeatureParams() of the front end); empty when usable.
+std::vector<std::string> validateConfig(const RegistrationConfig& config);
+
+// Every parameter as "key = value [unit]", one per line, for a start-up log.
+std::string describeConfig(const RegistrationConfig& config);
+
+}  // namespace mac_registration
