@@ -12,7 +12,7 @@ WORKSPACE="${MAC_WORKSPACE:-$(dirname "$PROJECT_DIR")/mac_registration_ws}"
 
 # Debian 12 packages the package builds, tests and runs with.
 DEBIAN_PACKAGES=(
-  build-essential cmake pkg-config catkin
+  build-essential cmake pkg-config catkin clang-format git
   libeigen3-dev libigraph-dev libglpk-dev libplfit-dev libgtest-dev libpcl-dev
   ros-base-dev libnodelet-dev libpcl-ros-dev libpcl-conversions-dev libtf2-ros-dev libtf2-eigen-dev
   libtf2-sensor-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
@@ -41,11 +41,39 @@ build_workspace() {
   mkdir -p "$WORKSPACE/src"
   ln -sfn "$PROJECT_DIR" "$WORKSPACE/src/mac_registration"
   echo "== building in $WORKSPACE (Release)"
-  (cd "$WORKSPACE" && catkin_make -DCMAKE_BUILD_TYPE=Release -j"$(nproc)" >"$WORKSPACE/build.log" 2>&1) || {
+  # shellcheck disable=SC2086  # MAC_CMAKE_ARGS holds several words on purpose
+  (cd "$WORKSPACE" && catkin_make -DCMAKE_BUILD_TYPE=Release ${MAC_CMAKE_ARGS:-} -j"$(nproc)" \
+    >"$WORKSPACE/build.log" 2>&1) || {
     tail -n 60 "$WORKSPACE/build.log"
     echo "build failed; full log: $WORKSPACE/build.log"
     return 1
   }
+}
+
+# Every C++ file as .clang-format wants it; prints the ones that are not and fails.
+check_formatting() {
+  local unformatted=()
+  while IFS= read -r f; do
+    clang-format --dry-run -Werror "$PROJECT_DIR/$f" >/dev/null 2>&1 || unformatted+=("$f")
+  done < <(git -C "$PROJECT_DIR" ls-files '*.cpp' '*.hpp')
+  if [ ${#unformatted[@]} -gt 0 ]; then
+    echo "not clang-formatted (run clang-format -i on them): ${unformatted[*]}"
+    return 1
+  fi
+  echo "== formatting: every C++ file is clang-formatted"
+}
+
+# The ROS-free core, its tools and tests with plain CMake, as a user without ROS builds them.
+build_and_test_core_only() {
+  local dir="$WORKSPACE/core_only"
+  echo "== core-only build (plain CMake, no ROS, no PCL) in $dir"
+  cmake -S "$PROJECT_DIR" -B "$dir" -DMAC_REGISTRATION_CORE_ONLY=ON -DMAC_REGISTRATION_WERROR=ON >"$dir.log" 2>&1 &&
+    cmake --build "$dir" -j"$(nproc)" >>"$dir.log" 2>&1 || {
+    tail -n 40 "$dir.log"
+    echo "core-only build failed; full log: $dir.log"
+    return 1
+  }
+  (cd "$dir" && ctest --output-on-failure --timeout 600)
 }
 
 source_workspace() {

@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
-# Installs the Debian packages, builds the package and its tests, and runs every test with ctest.
+# Installs the Debian packages, checks the formatting, builds the core alone with plain CMake and runs its
+# tests, then builds the whole package (warnings are errors) and runs every test with ctest.
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
 install_dependencies
-build_workspace
+check_formatting
+mkdir -p "$WORKSPACE"
+build_and_test_core_only
+MAC_CMAKE_ARGS="-DMAC_REGISTRATION_WERROR=ON" build_workspace
 source_workspace
 echo "== running tests"
 cd "$WORKSPACE/build"
