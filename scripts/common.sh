@@ -36,18 +36,25 @@ install_dependencies() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
 }
 
-# Builds the package (and its tests) in a catkin workspace that links to this checkout, Release.
+# Builds the package in a catkin workspace that links to this checkout, Release; with an argument `tests`,
+# its tests too (catkin's `tests` target). MAC_CMAKE_ARGS adds CMake options (CI: -DMAC_REGISTRATION_WERROR=ON).
 build_workspace() {
   mkdir -p "$WORKSPACE/src"
   ln -sfn "$PROJECT_DIR" "$WORKSPACE/src/mac_registration"
-  echo "== building in $WORKSPACE (Release)"
-  # shellcheck disable=SC2086  # MAC_CMAKE_ARGS holds several words on purpose
-  (cd "$WORKSPACE" && catkin_make -DCMAKE_BUILD_TYPE=Release ${MAC_CMAKE_ARGS:-} -j"$(nproc)" \
-    >"$WORKSPACE/build.log" 2>&1) || {
-    tail -n 60 "$WORKSPACE/build.log"
-    echo "build failed; full log: $WORKSPACE/build.log"
-    return 1
-  }
+  : >"$WORKSPACE/build.log"
+  local targets=(all)
+  [ "${1:-}" = tests ] && targets+=(tests)
+  echo "== building ${targets[*]} in $WORKSPACE (Release)"
+  local target
+  for target in "${targets[@]}"; do
+    # shellcheck disable=SC2086  # MAC_CMAKE_ARGS holds several words on purpose
+    (cd "$WORKSPACE" && catkin_make -DCMAKE_BUILD_TYPE=Release ${MAC_CMAKE_ARGS:-} -j"$(nproc)" "$target" \
+      >>"$WORKSPACE/build.log" 2>&1) || {
+      tail -n 60 "$WORKSPACE/build.log"
+      echo "build failed; full log: $WORKSPACE/build.log"
+      return 1
+    }
+  done
 }
 
 # Every C++ file as .clang-format wants it; prints the ones that are not and fails.

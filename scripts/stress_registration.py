@@ -111,7 +111,7 @@ class Run:
         self.rospy, self.Register, self.CORPUS, self.xyz_cloud = rospy, Register, CORPUS, xyz_cloud
         self.Result = RegistrationResult
         self.args, self.processes = args, processes
-        data = os.path.join(PACKAGE, "test", "data", "redkitchen_4_0")
+        data = os.path.join(PACKAGE, "data", "redkitchen_4_0")
         self.source_points = read_pcd_xyz(os.path.join(data, "source_cloud_bin_4.pcd"))
         self.target = xyz_cloud(read_pcd_xyz(os.path.join(data, "target_cloud_bin_0.pcd")), "fragment_0")
         self.lock = threading.Lock()

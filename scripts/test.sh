@@ -7,7 +7,7 @@ install_dependencies
 check_formatting
 mkdir -p "$WORKSPACE"
 build_and_test_core_only
-MAC_CMAKE_ARGS="-DMAC_REGISTRATION_WERROR=ON" build_workspace
+MAC_CMAKE_ARGS="-DMAC_REGISTRATION_WERROR=ON" build_workspace tests
 source_workspace
 echo "== running tests"
 cd "$WORKSPACE/build"

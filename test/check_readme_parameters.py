@@ -1,8 +1,11 @@
 #!/usr/bin/env python3
 """The README's parameter table must agree with the presets: every row's key exists in both presets and its
-indoor/outdoor defaults are the presets' values. Exits non-zero, naming each disagreement."""
+indoor/outdoor defaults are the presets' values. Exits non-zero, naming each disagreement; with
+--xunit PATH it also writes the outcome as a JUnit report (what catkin_test_results reads)."""
+import argparse
 import os
 import sys
+from xml.sax.saxutils import escape
 
 import yaml
 
@@ -30,7 +33,22 @@ def same(text, actual):
     return text == str(actual)
 
 
+def write_xunit(path, problems):
+    failure = ""
+    if problems:
+        failure = '<failure message="README parameter table">%s</failure>' % escape("\n".join(problems))
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w") as f:
+        f.write('<?xml version="1.0" encoding="UTF-8"?>\n'
+                '<testsuite name="readme_parameter_table" tests="1" failures="%d" errors="0">'
+                '<testcase classname="docs" name="readme_parameter_table">%s</testcase></testsuite>\n'
+                % (1 if problems else 0, failure))
+
+
 def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--xunit", help="also write a JUnit report here")
+    args = parser.parse_args()
     presets = {"indoor": preset("indoor_rgbd.yaml"), "outdoor": preset("outdoor_lidar.yaml")}
     with open(os.path.join(ROOT, "README.md")) as f:
         readme = f.read()
@@ -49,10 +67,14 @@ def main():
                 continue
             if not same(cells[column], actual):
                 problems.append("%s: README says %s for %s, the preset has %r" % (key, cells[column], name, actual))
+    if not rows:
+        problems.append("no parameter rows found under '## Parameters'")
     for p in problems:
         print("README parameter table:", p)
+    if args.xunit:
+        write_xunit(args.xunit, problems)
     print("%d rows checked, %d disagreements" % (len(rows), len(problems)))
-    return 1 if problems or not rows else 0
+    return 1 if problems else 0
 
 
 if __name__ == "__main__":

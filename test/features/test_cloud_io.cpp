@@ -244,7 +244,7 @@ TEST(LoadCloud, RefusesPlyFilesPclWouldMisreadWithTheReason) {
 
 TEST(LoadCloud, ReadsTheShippedRealPair) {
   const PointCloud::Ptr cloud =
-      loadCloud(std::string(MAC_TEST_DATA_DIR) + "/redkitchen_4_0/source_cloud_bin_4.pcd");
+      loadCloud(std::string(MAC_DATA_DIR) + "/redkitchen_4_0/source_cloud_bin_4.pcd");
   EXPECT_EQ(cloud->size(), 13622u);
 }
 

@@ -11,12 +11,12 @@
 namespace mac_registration {
 namespace {
 
-std::string dataPath(const std::string& name) { return std::string(MAC_TEST_DATA_DIR) + "/" + name; }
+std::string demoDataPath(const std::string& name) { return std::string(MAC_DATA_DIR) + "/" + name; }
 
 struct RealPair {
-  PointCloud::Ptr source = loadCloud(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd"));
-  PointCloud::Ptr target = loadCloud(dataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
-  Eigen::Isometry3d truth = readTransformFile(dataPath("redkitchen_4_0/T_target_source_gt.txt"));
+  PointCloud::Ptr source = loadCloud(demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd"));
+  PointCloud::Ptr target = loadCloud(demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
+  Eigen::Isometry3d truth = readTransformFile(demoDataPath("redkitchen_4_0/T_target_source_gt.txt"));
 };
 
 const RealPair& realPair() {

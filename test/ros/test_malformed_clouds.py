@@ -19,7 +19,7 @@ from sensor_msgs.msg import PointCloud2
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from malformed_clouds import CORPUS, has_points, read_pcd_xyz, xyz_cloud  # noqa: E402
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "redkitchen_4_0")
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "data", "redkitchen_4_0")
 NODE = "/mac_registration"
 MANAGER = "/mac_registration_manager"
 

@@ -20,7 +20,8 @@
 namespace mac_registration {
 namespace {
 
-const std::string kData = MAC_TEST_DATA_DIR;
+const std::string kData = MAC_TEST_DATA_DIR;  // test-only data
+const std::string kDemoData = MAC_DATA_DIR;   // the demo's scans
 
 Eigen::Isometry3d toEigen(const geometry_msgs::Transform& t) { return toIsometry(t); }
 
@@ -52,12 +53,13 @@ sensor_msgs::PointCloud2 redkitchenCloud(const std::string& file, const std::str
   std_msgs::Header header;
   header.frame_id = frame;
   header.stamp = ros::Time::now();
-  return toPointCloud2(*loadCloud(kData + "/redkitchen_4_0/" + file), Eigen::Isometry3d::Identity(), header);
+  return toPointCloud2(*loadCloud(kDemoData + "/redkitchen_4_0/" + file), Eigen::Isometry3d::Identity(),
+                       header);
 }
 
 void expectWithinBenchmarkCriterion(const mac_registration::RegistrationResult& result) {
   ASSERT_TRUE(result.success) << result.status << ": " << result.message;
-  const Eigen::Isometry3d truth = readTransformFile(kData + "/redkitchen_4_0/T_target_source_gt.txt");
+  const Eigen::Isometry3d truth = readTransformFile(kDemoData + "/redkitchen_4_0/T_target_source_gt.txt");
   EXPECT_LE(rotationErrorDeg(toEigen(result.transform), truth), 15.0);
   EXPECT_LE(translationError(toEigen(result.transform), truth), 0.30);
 }

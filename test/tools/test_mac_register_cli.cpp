@@ -32,6 +32,7 @@ CliRun run(const std::string& arguments) {
 }
 
 std::string dataPath(const std::string& name) { return std::string(MAC_TEST_DATA_DIR) + "/" + name; }
+std::string demoDataPath(const std::string& name) { return std::string(MAC_DATA_DIR) + "/" + name; }
 
 bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
@@ -83,12 +84,12 @@ TEST(MacRegisterCli, RealCorrespondencesRegisterAndWriteTheTransform) {
 TEST(MacRegisterCli, CloudsRegisterAndPrintTheFrontEnd) {
   TempDir dir;
   const CliRun r =
-      run(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +
-          dataPath("redkitchen_4_0/target_cloud_bin_0.pcd") + " --config " + MAC_CONFIG_DIR +
+      run(demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +
+          demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd") + " --config " + MAC_CONFIG_DIR +
           "/indoor_rgbd.yaml --out " + dir.file("T.txt") + " --save-correspondences " + dir.file("c.txt"));
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(contains(r.output, "front end: resolution")) << r.output;
-  const Eigen::Isometry3d truth = readTransformFile(dataPath("redkitchen_4_0/T_target_source_gt.txt"));
+  const Eigen::Isometry3d truth = readTransformFile(demoDataPath("redkitchen_4_0/T_target_source_gt.txt"));
   const Eigen::Isometry3d estimate = readTransformFile(dir.file("T.txt"));
   EXPECT_LT(rotationErrorDeg(estimate, truth), 15.0);
   EXPECT_LT(translationError(estimate, truth), 0.30);
@@ -97,7 +98,7 @@ TEST(MacRegisterCli, CloudsRegisterAndPrintTheFrontEnd) {
 
 TEST(MacRegisterCli, MissingAndCorruptCloudsExitTwoNamingTheFile) {
   TempDir dir;
-  const std::string good = dataPath("redkitchen_4_0/target_cloud_bin_0.pcd");
+  const std::string good = demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd");
   CliRun r = run(dir.file("absent.pcd") + " " + good);
   EXPECT_EQ(r.status, 2);
   EXPECT_TRUE(contains(r.output, dir.file("absent.pcd")) && contains(r.output, "no such file")) << r.output;
@@ -121,7 +122,7 @@ TEST(MacRegisterCli, MissingAndCorruptCloudsExitTwoNamingTheFile) {
 // or exit 0 after a warning; now each exits 2 naming the file and the reason.
 TEST(MacRegisterCli, MalformedCloudFilesExitTwoNamingTheFileAndTheReason) {
   TempDir dir;
-  const std::string good = dataPath("redkitchen_4_0/target_cloud_bin_0.pcd");
+  const std::string good = demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd");
   const std::string fields = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
   const std::string three = fields + "WIDTH 3\nHEIGHT 1\nPOINTS 3\n";
   const struct {
@@ -149,8 +150,8 @@ TEST(MacRegisterCli, MalformedCloudFilesExitTwoNamingTheFileAndTheReason) {
 }
 #else
 TEST(MacRegisterCli, CoreOnlyBuildRefusesCloudsWithTheReason) {
-  const CliRun r = run(dataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +
-                       dataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
+  const CliRun r = run(demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " +
+                       demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
   EXPECT_EQ(r.status, 2);
   EXPECT_TRUE(contains(r.output, "no PCL front end")) << r.output;
 }

@@ -1,4 +1,4 @@
-#include "mac_registration/features/ransac_baseline.hpp"
+#include "ransac_baseline.hpp"
 
 #include <pcl/correspondence.h>
 #include <pcl/point_cloud.h>

@@ -3,7 +3,7 @@
 
 #include "../core/test_support.hpp"
 #include "mac_registration/core/text_io.hpp"
-#include "mac_registration/features/ransac_baseline.hpp"
+#include "ransac_baseline.hpp"
 
 namespace mac_registration {
 namespace {

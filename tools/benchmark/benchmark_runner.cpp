@@ -6,7 +6,7 @@
 #include "mac_registration/core/text_io.hpp"
 #ifdef MAC_REGISTRATION_WITH_FEATURES
 #include "mac_registration/features/cloud_registration.hpp"
-#include "mac_registration/features/ransac_baseline.hpp"
+#include "ransac_baseline.hpp"
 #endif
 
 namespace mac_registration {

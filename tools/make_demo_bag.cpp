@@ -24,11 +24,10 @@ struct DemoPair {
 };
 
 constexpr DemoPair kPairs[] = {
-    {"indoor", "test/data/redkitchen_4_0/source_cloud_bin_4.pcd",
-     "test/data/redkitchen_4_0/target_cloud_bin_0.pcd", "test/data/redkitchen_4_0/T_target_source_gt.txt",
-     "fragment_4", "fragment_0"},
-    {"outdoor", "demo/data/lidar_source_251371071.pcd", "demo/data/lidar_target_251370668.pcd",
-     "demo/data/lidar_T_target_source_reference.txt", "lidar_source", "lidar_target"},
+    {"indoor", "data/redkitchen_4_0/source_cloud_bin_4.pcd", "data/redkitchen_4_0/target_cloud_bin_0.pcd",
+     "data/redkitchen_4_0/T_target_source_gt.txt", "fragment_4", "fragment_0"},
+    {"outdoor", "data/lidar/lidar_source_251371071.pcd", "data/lidar/lidar_target_251370668.pcd",
+     "data/lidar/lidar_T_target_source_reference.txt", "lidar_source", "lidar_target"},
 };
 constexpr int kCycles = 3;
 constexpr double kPeriod = 4.0;  // [s] between two publications of the same pair

@@ -1,6 +1,0 @@
-mac_core_test(test_compatibility_graph core/test_compatibility_graph.cpp)
-mac_core_test(test_clique_search core/test_clique_search.cpp)
-mac_core_test(test_clique_selection core/test_clique_selection.cpp)
-mac_core_test(test_hypotheses core/test_hypotheses.cpp)
-mac_core_test(test_evaluation core/test_evaluation.cpp)
-mac_core_test(test_refinement core/test_refinement.cpp)
