@@ -9,6 +9,7 @@
 
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/ros/conversions.hpp"
+#include "mac_registration/ros/reconfigure_mapping.hpp"
 #include "mac_registration/ros/visualization.hpp"
 
 namespace mac_registration {
@@ -43,25 +44,14 @@ void markFailed(mac_registration::RegistrationResult& msg, const std::string& st
 // drop without a trace, whereas the slot counts what it replaces.
 constexpr std::uint32_t kInputQueueSize = 5;
 
-// The dynamically reconfigurable fields of `config`.
-void fillReconfigurable(const ServerConfig& config, MacRegistrationConfig& c) {
-  c.t_cmp = config.mac.graph.t_cmp;
-  c.gaussian_sigma = config.mac.graph.gaussian_sigma;
-  c.quadratic_threshold = config.mac.graph.quadratic_threshold;
-  c.inlier_threshold = config.mac.evaluation.inlier_threshold;
-  c.min_inliers = static_cast<int>(config.mac.evaluation.min_inliers);
-  c.clique_time_limit = config.mac.cliques.time_limit;
-  c.voxel_size = config.features.voxel_size;
-}
+RegistrationConfig algorithmOf(const ServerConfig& config) { return {config.mac, config.features}; }
 
 bool sameReconfigurable(const ServerConfig& a, const ServerConfig& b) {
-  MacRegistrationConfig ca, cb;
-  fillReconfigurable(a, ca);
-  fillReconfigurable(b, cb);
-  return ca.t_cmp == cb.t_cmp && ca.gaussian_sigma == cb.gaussian_sigma &&
-         ca.quadratic_threshold == cb.quadratic_threshold && ca.inlier_threshold == cb.inlier_threshold &&
-         ca.min_inliers == cb.min_inliers && ca.clique_time_limit == cb.clique_time_limit &&
-         ca.voxel_size == cb.voxel_size;
+  for (const auto& key : reconfigurableKeys()) {
+    const Parameter* p = findParameter(key);
+    if (p->get(algorithmOf(a)) != p->get(algorithmOf(b))) return false;
+  }
+  return true;
 }
 
 std::string stampText(const ros::Time& stamp) {
@@ -115,7 +105,7 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   reconfigure_ =
       std::make_unique<dynamic_reconfigure::Server<MacRegistrationConfig>>(reconfigure_mutex_, private_nh_);
   MacRegistrationConfig initial = MacRegistrationConfig::__getDefault__();
-  fillReconfigurable(config_, initial);
+  toReconfigure(algorithmOf(config_), initial);
   reconfigure_->updateConfig(initial);
   reconfigure_->setCallback(
       [this](MacRegistrationConfig& c, std::uint32_t level) { onReconfigure(c, level); });
@@ -174,27 +164,36 @@ ServerConfig RegistrationServer::config() const {
 void RegistrationServer::onReconfigure(MacRegistrationConfig& c, std::uint32_t) {
   const ServerConfig current = config();
   ServerConfig next = current;
-  next.mac.graph.t_cmp = c.t_cmp;
-  next.mac.graph.gaussian_sigma = c.gaussian_sigma;
-  next.mac.graph.quadratic_threshold = c.quadratic_threshold;
-  next.mac.evaluation.inlier_threshold = c.inlier_threshold;
-  next.mac.evaluation.min_inliers = static_cast<std::size_t>(std::max(c.min_inliers, 0));  // .cfg min: 0
-  next.mac.cliques.time_limit = c.clique_time_limit;
-  next.features.voxel_size = c.voxel_size;
-  auto problems = validateParams(next.mac);
-  for (const auto& p : validateFeatureParams(next.features)) problems.push_back(p);
+  RegistrationConfig algorithm = algorithmOf(current);
+  std::vector<std::string> problems;
+  try {
+    fromReconfigure(c, algorithm);
+    problems = validateConfig(algorithm);
+  } catch (const std::invalid_argument& e) {
+    problems.push_back(e.what());  // e.g. a negative count
+  }
   if (!problems.empty()) {
     ROS_ERROR_STREAM(
         "mac_registration: reconfiguration refused, keeping the previous values (a request outside the "
         "bounds of cfg/MacRegistration.cfg arrives clamped to them):"
         << joined(problems));
-    fillReconfigurable(current, c);  // what dynamic_reconfigure reports must be what is in force
+    toReconfigure(algorithmOf(current), c);  // what dynamic_reconfigure reports must be what is in force
     return;
   }
+  next.mac = algorithm.mac;
+  next.features = algorithm.features;
   if (sameReconfigurable(current, next)) return;  // e.g. the call that comes with setCallback
+  // The private parameters the node read at start say what is in force, as dynamic_reconfigure's own do.
+  for (const auto& key : reconfigurableKeys()) {
+    std::string name = key;
+    name[name.find('.')] = '/';
+    const ParameterValue value = findParameter(key)->get(algorithm);
+    if (const auto* d = std::get_if<double>(&value)) private_nh_.setParam(name, *d);
+    if (const auto* i = std::get_if<long long>(&value)) private_nh_.setParam(name, static_cast<int>(*i));
+  }
   std::lock_guard<std::mutex> lock(config_mutex_);
   config_ = next;
-  ROS_INFO_STREAM("mac_registration: reconfigured: " << describeConfig(config_));
+  ROS_INFO_STREAM("mac_registration: reconfigured:\n" << describeConfig(config_));
 }
 
 void RegistrationServer::onSource(const sensor_msgs::PointCloud2ConstPtr& source) {

@@ -9,6 +9,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <limits>
@@ -122,8 +123,17 @@ TEST_F(RegistrationServerTest, CorrespondencesTopicPublishesResultAndTf) {
 // A zero stamp would put the transform on tf at t = 0, older than any listener's cache: the node stamps the
 // result and its tf with the arrival time instead, and says so.
 TEST_F(RegistrationServerTest, AZeroStampIsReplacedByTheArrivalTime) {
-  tf2_ros::Buffer buffer;
-  tf2_ros::TransformListener listener(buffer);
+  // The transform is sent once: the test's own /tf subscription must be connected before the call, or the
+  // one message can go by before it is.
+  geometry_msgs::TransformStamped sent;
+  ros::Subscriber tf_sub =
+      nh_.subscribe<tf2_msgs::TFMessage>("/tf", 100, [&](const tf2_msgs::TFMessageConstPtr& m) {
+        for (const auto& t : m->transforms) {
+          if (t.child_frame_id == "zero_stamp_s") sent = t;
+        }
+      });
+  for (int i = 0; i < 100 && tf_sub.getNumPublishers() == 0; ++i) ros::Duration(0.05).sleep();
+  ASSERT_GT(tf_sub.getNumPublishers(), 0u) << "nobody publishes /tf";
   const ros::Time before = ros::Time::now();
   mac_registration::RegisterCorrespondences srv;
   srv.request.correspondences = redkitchenCorrespondences("zero_stamp_t", "zero_stamp_s");
@@ -135,10 +145,10 @@ TEST_F(RegistrationServerTest, AZeroStampIsReplacedByTheArrivalTime) {
   bool said = false;
   for (const auto& w : result.warnings) said |= w.find("header.stamp is zero") != std::string::npos;
   EXPECT_TRUE(said);
-  const auto tf =
-      buffer.lookupTransform("zero_stamp_t", "zero_stamp_s", result.header.stamp, ros::Duration(5.0));
-  EXPECT_EQ(tf.header.stamp, result.header.stamp);
-  EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(result.transform), 1e-6));
+  for (int i = 0; i < 100 && sent.child_frame_id.empty(); ++i) ros::Duration(0.05).sleep();
+  ASSERT_EQ(sent.header.frame_id, "zero_stamp_t");
+  EXPECT_EQ(sent.header.stamp, result.header.stamp);
+  EXPECT_TRUE(tf2::transformToEigen(sent).isApprox(toEigen(result.transform), 1e-6));
 }
 
 TEST_F(RegistrationServerTest, RegisterServiceAlignsARealScanPair) {
@@ -245,10 +255,10 @@ TEST_F(RegistrationServerTest, ReconfiguredThresholdsApplyToTheNextRegistration)
   const auto reconfigure = [](double inlier_threshold, int min_inliers) {
     dynamic_reconfigure::Reconfigure srv;
     dynamic_reconfigure::DoubleParameter tau;
-    tau.name = "inlier_threshold";
+    tau.name = "evaluation_inlier_threshold";
     tau.value = inlier_threshold;
     dynamic_reconfigure::IntParameter count;
-    count.name = "min_inliers";
+    count.name = "evaluation_min_inliers";
     count.value = min_inliers;
     srv.request.config.doubles.push_back(tau);
     srv.request.config.ints.push_back(count);
@@ -267,6 +277,9 @@ TEST_F(RegistrationServerTest, ReconfiguredThresholdsApplyToTheNextRegistration)
   const auto demanding = registerRealSet();
   EXPECT_FALSE(demanding.success);
   EXPECT_EQ(demanding.status, "too few inliers") << demanding.message;
+  int min_inliers = 0;
+  EXPECT_TRUE(ros::param::get("/mac_registration/evaluation/min_inliers", min_inliers));
+  EXPECT_EQ(min_inliers, 300);  // the private parameter follows the reconfiguration
   reconfigure(0.1, 3);
   const auto normal = registerRealSet();
   EXPECT_TRUE(normal.success) << normal.message;
@@ -304,9 +317,15 @@ TEST_F(RegistrationServerTest, OutOfRangeReconfigurationsAreRefusedNotClamped) {
     }
     return -1;
   };
-  EXPECT_DOUBLE_EQ(doubleValue(reconfigure("t_cmp", 1.5, false), "t_cmp"), 0.99);
-  EXPECT_DOUBLE_EQ(doubleValue(reconfigure("inlier_threshold", -0.2, false), "inlier_threshold"), 0.1);
-  EXPECT_EQ(intValue(reconfigure("min_inliers", 1, true), "min_inliers"), 3);
+  EXPECT_DOUBLE_EQ(doubleValue(reconfigure("graph_t_cmp", 1.5, false), "graph_t_cmp"), 0.99);
+  EXPECT_DOUBLE_EQ(
+      doubleValue(reconfigure("evaluation_inlier_threshold", -0.2, false), "evaluation_inlier_threshold"),
+      0.1);
+  EXPECT_EQ(intValue(reconfigure("evaluation_min_inliers", 1, true), "evaluation_min_inliers"), 3);
+  // The private parameters the node reads at start say what is in force too.
+  double t_cmp = 0.0;
+  EXPECT_TRUE(ros::param::get("/mac_registration/graph/t_cmp", t_cmp));
+  EXPECT_DOUBLE_EQ(t_cmp, 0.99);
 
   mac_registration::RegisterCorrespondences srv;
   srv.request.correspondences = redkitchenCorrespondences("refused_t", "refused_s");
