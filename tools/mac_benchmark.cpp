@@ -29,6 +29,7 @@
 #include "benchmark_runner.hpp"
 #include "mac_registration/config/preset_file.hpp"
 #include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "synthetic.hpp"
 

@@ -12,6 +12,7 @@
 #include "mac_registration/core/text_io.hpp"
 #include "result_report.hpp"
 #ifdef MAC_REGISTRATION_WITH_FEATURES
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #endif
 

@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "mac_registration/ros/conversions.hpp"
 

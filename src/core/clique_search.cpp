@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "igraph_session.hpp"
+#include "mac_registration/core/graph_bounds.hpp"
 
 namespace mac_registration {
 namespace {
@@ -133,35 +134,6 @@ std::size_t nonIsolatedNodes(const CompatibilityGraph& graph) {
   return count;
 }
 
-// Leaves out nodes of the cores above max_degeneracy, keeping the strongest of them, until the graph's
-// degeneracy is within the bound. Each round keeps at most max_degeneracy of the over-dense nodes, and
-// adding k nodes raises the degeneracy by at most k, so one or two rounds usually suffice.
-CompatibilityGraph thinDenseCores(const CompatibilityGraph& graph, int max_degeneracy, const StopFlag* stop,
-                                  CliqueSearchStats& stats) {
-  CompatibilityGraph current = graph;
-  std::vector<char> keep(graph.num_nodes, 1);
-  for (int round = 0; round < 8 && !stopRequested(stop); ++round) {
-    const std::vector<int> core = coreNumbers(current);
-    std::vector<double> strength = nodeStrength(current);
-    bool over = false;
-    for (int i = 0; i < current.num_nodes; ++i) {
-      if (core[i] > max_degeneracy) {
-        over = true;
-      } else {
-        strength[i] = -1.0;  // not a candidate
-      }
-    }
-    if (!over) break;
-    const std::vector<char> strongest = strongestNodes(strength, static_cast<std::size_t>(max_degeneracy));
-    for (int i = 0; i < current.num_nodes; ++i) {
-      if (core[i] > max_degeneracy && !strongest[i]) keep[i] = 0;
-    }
-    current = keepNodes(graph, keep);
-  }
-  stats.thinned_nodes = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 0));
-  return current;
-}
-
 }  // namespace
 
 CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
@@ -177,7 +149,7 @@ CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const Cl
   CompatibilityGraph pruned;
   const CompatibilityGraph* current = &graph;
   if (params.max_degeneracy > 0 && stats.degeneracy > params.max_degeneracy) {
-    pruned = thinDenseCores(graph, params.max_degeneracy, stop, stats);
+    pruned = thinDenseCores(graph, params.max_degeneracy, stop, stats.thinned_nodes);
     current = &pruned;
   }
   for (int round = 0;; ++round) {

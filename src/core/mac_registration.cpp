@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -11,6 +12,7 @@
 #include "mac_registration/core/clique_selection.hpp"
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/evaluation.hpp"
+#include "mac_registration/core/graph_bounds.hpp"
 #include "mac_registration/core/hypotheses.hpp"
 #include "mac_registration/core/refinement.hpp"
 
@@ -37,30 +39,6 @@ bool stopped(const StopFlag* stop, MacResult& result, const char* stage) {
   if (!stopRequested(stop)) return false;
   fail(result, RegistrationStatus::kCancelled, std::string("cancelled at ") + stage);
   return true;
-}
-
-// Bounds the cost of the SOG weights: a graph whose second-order pass would exceed the budget keeps only
-// its highest-degree nodes (inliers of a dense consensus have the highest degree), shrinking until it fits.
-CompatibilityGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop,
-                                        MacResult& result) {
-  if (secondOrderWork(graph) <= budget) return graph;
-  std::vector<double> degree(graph.num_nodes);
-  std::size_t nodes = 0;
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    degree[i] = graph.degree(i);
-    nodes += graph.degree(i) > 0;
-  }
-  CompatibilityGraph reduced;
-  do {
-    nodes = nodes * 7 / 10;
-    reduced = keepNodes(graph, strongestNodes(degree, nodes));
-  } while (nodes > 3 && !stopRequested(stop) && secondOrderWork(reduced) > budget);
-  result.graph_reduced = true;
-  result.counters.graph_nodes = nodes;
-  result.warnings.push_back(
-      "graph too dense for the second-order budget (graph.max_second_order_work): kept the " +
-      std::to_string(nodes) + " correspondences of highest degree");
-  return reduced;
 }
 
 std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const CorrespondenceSet& c,
@@ -147,56 +125,56 @@ BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const C
   for (int h = 0; h < count; ++h) {
     if (transforms[h] && !stopRequested(stop)) scores[h] = evaluator.score(*transforms[h]);
   }
-  BestHypothesis best;
   for (int h = 0; h < count; ++h) {
-    if (!transforms[h]) {
+    if (transforms[h]) {
+      ++result.counters.hypotheses;
+    } else {
       ++result.counters.degenerate_cliques;
-      continue;
-    }
-    ++result.counters.hypotheses;
-    // Strictly greater: the earliest hypothesis wins ties, whatever the thread count.
-    if (!best.found || scores[h].score > best.score.score) {
-      best = {*transforms[h], scores[h], true};
+      scores[h].score = -std::numeric_limits<double>::infinity();  // never chosen over a real hypothesis
     }
   }
+  BestHypothesis best;
+  const int chosen = bestHypothesis(scores);  // the earliest among equals, whatever the thread count
+  if (chosen >= 0 && transforms[chosen]) best = {*transforms[chosen], scores[chosen], true};
   result.times.evaluation_ms = millisecondsSince(start);
   return best;
 }
 
-void runPipeline(const CorrespondenceSet& input, const MacParams& params, const StopFlag* stop,
-                 MacResult& result) {
+// Stage 0: parameters and input. False, with the result failed, when there is nothing to register.
+bool checkInput(const CorrespondenceSet& input, const MacParams& params, SanitizedCorrespondences& sane,
+                MacResult& result) {
   const auto problems = validateParams(params);
   if (!problems.empty()) {
     std::string message = "invalid parameters:";
     for (const auto& p : problems) message += " " + p;
     fail(result, RegistrationStatus::kInvalidParameters, message);
-    return;
+    return false;
   }
   result.counters.correspondences = input.size();
-  SanitizedCorrespondences sane;
   try {
     sane = sanitizeCorrespondences(input);
   } catch (const std::invalid_argument& e) {
     fail(result, RegistrationStatus::kInvalidInput, e.what());
-    return;
+    return false;
   }
-  const CorrespondenceSet& c = sane.correspondences;
   result.counters.dropped_non_finite = sane.dropped_non_finite;
   if (sane.dropped_non_finite > 0) {
     result.warnings.push_back("dropped " + std::to_string(sane.dropped_non_finite) +
                               " correspondences with NaN/Inf coordinates");
   }
-  if (c.size() < 3) {
+  if (sane.correspondences.size() < 3) {
     fail(result, RegistrationStatus::kTooFewCorrespondences,
-         "need at least 3 finite correspondences, got " + std::to_string(c.size()));
-    return;
+         "need at least 3 finite correspondences, got " + std::to_string(sane.correspondences.size()));
+    return false;
   }
-  const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
-  if (stopped(stop, result, "the start")) return;
+  return true;
+}
 
-  auto start = Clock::now();
+// Stage 1: the first-order graph, with what its bounds did.
+CompatibilityGraph firstOrderStage(const CorrespondenceSet& c, const MacParams& params, int threads,
+                                   const StopFlag* stop, MacResult& result) {
+  const auto start = Clock::now();
   FirstOrderGraph fog = buildFirstOrderGraph(c, params.graph, threads, stop);
-  if (stopped(stop, result, "the compatibility graph")) return;
   result.counters.graph_nodes = fog.reduced ? fog.reduced_to : fog.sampled ? fog.sampled_to : c.size();
   result.counters.first_order_edges = fog.graph.numEdges();
   if (fog.sampled) {
@@ -213,23 +191,79 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
                               std::to_string(fog.reduced_to) + " correspondences of highest degree");
   }
   result.times.graph_ms = millisecondsSince(start);
+  return std::move(fog.graph);
+}
 
-  start = Clock::now();
-  CompatibilityGraph graph = std::move(fog.graph);
+// Stage 2: the second-order weights within their budget, then the pruning of a dense graph's weak edges.
+CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& params, int threads,
+                                    const StopFlag* stop, MacResult& result) {
+  const auto start = Clock::now();
   if (params.graph.second_order) {
-    graph = boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, stop, result);
-    if (stopped(stop, result, "the second-order bound")) return;
-    graph = buildSecondOrderGraph(graph, threads, stop);
-    if (stopped(stop, result, "the second-order graph")) return;
+    BoundedGraph bounded = boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, stop);
+    if (bounded.reduced) {
+      result.graph_reduced = true;
+      result.counters.graph_nodes = bounded.kept_nodes;
+      result.warnings.push_back(
+          "graph too dense for the second-order budget (graph.max_second_order_work): kept the " +
+          std::to_string(bounded.kept_nodes) + " correspondences of highest degree");
+    }
+    graph = stopRequested(stop) ? CompatibilityGraph{} : buildSecondOrderGraph(bounded.graph, threads, stop);
   }
-  if (params.graph.dense_mean_degree > 0.0 && graph.num_nodes > 0 &&
-      2.0 * double(graph.numEdges()) / graph.num_nodes > params.graph.dense_mean_degree) {
-    const std::size_t before = graph.numEdges();
-    graph = withoutWeakEdges(graph, otsuEdgeThreshold(graph));
-    result.counters.pruned_weak_edges = before - graph.numEdges();
-  }
-  result.counters.graph_edges = graph.numEdges();
+  BoundedGraph pruned = pruneDenseGraph(std::move(graph), params.graph.dense_mean_degree);
+  result.counters.pruned_weak_edges = pruned.removed_edges;
+  result.counters.graph_edges = pruned.graph.numEdges();
   result.times.second_order_ms = millisecondsSince(start);
+  return std::move(pruned.graph);
+}
+
+// Stage 7 and the result: refinement of the best hypothesis, its inliers, and the success test.
+void refineAndAccept(const BestHypothesis& best, const SanitizedCorrespondences& sane,
+                     const HypothesisEvaluator& evaluator, const MacParams& params, const StopFlag* stop,
+                     MacResult& result) {
+  const auto start = Clock::now();
+  RefinementOutcome refined{best.transform, best.score, 0, 0};
+  if (params.refinement.enabled) {
+    refined = refineTransform(best.transform, best.score, sane.correspondences, evaluator, params.evaluation,
+                              params.refinement, stop);
+  }
+  if (stopped(stop, result, "the refinement")) return;
+  result.counters.refinement_iterations = refined.iterations;
+  result.times.refinement_ms = millisecondsSince(start);
+
+  result.T_target_source = refined.T_target_source;
+  result.score = refined.score.score;
+  for (int i : evaluator.inliers(refined.T_target_source))
+    result.inlier_indices.push_back(sane.original_index[i]);
+  result.counters.inliers = result.inlier_indices.size();
+  if (result.counters.inliers < params.evaluation.min_inliers) {
+    fail(
+        result, RegistrationStatus::kTooFewInliers,
+        "best transform has " + std::to_string(result.counters.inliers) +
+            " inliers, fewer than evaluation.min_inliers = " + std::to_string(params.evaluation.min_inliers));
+    return;
+  }
+  result.success = true;
+  result.status = RegistrationStatus::kSuccess;
+  std::ostringstream text;
+  text << result.counters.inliers << " inliers of " << sane.correspondences.size()
+       << " correspondences, score " << result.score;
+  result.message = text.str();
+}
+
+// The stages in order; each failure ends the registration with its reason, a raised stop flag between
+// any two of them.
+void runPipeline(const CorrespondenceSet& input, const MacParams& params, const StopFlag* stop,
+                 MacResult& result) {
+  SanitizedCorrespondences sane;
+  if (!checkInput(input, params, sane, result)) return;
+  const CorrespondenceSet& c = sane.correspondences;
+  const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
+  if (stopped(stop, result, "the start")) return;
+
+  CompatibilityGraph graph = firstOrderStage(c, params, threads, stop, result);
+  if (stopped(stop, result, "the compatibility graph")) return;
+  graph = secondOrderStage(std::move(graph), params, threads, stop, result);
+  if (stopped(stop, result, "the second-order graph")) return;
   if (graph.numEdges() == 0) {
     fail(result, RegistrationStatus::kEmptyGraph,
          params.graph.second_order ? "no compatible triangle of correspondences (empty second-order graph); "
@@ -260,63 +294,10 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
                     : "every selected clique is degenerate (coincident or collinear points)");
     return;
   }
-
-  start = Clock::now();
-  RefinementOutcome refined{best.transform, best.score, 0, 0};
-  if (params.refinement.enabled) {
-    refined =
-        refineTransform(best.transform, best.score, c, evaluator, params.evaluation, params.refinement, stop);
-  }
-  if (stopped(stop, result, "the refinement")) return;
-  result.counters.refinement_iterations = refined.iterations;
-  result.times.refinement_ms = millisecondsSince(start);
-
-  result.T_target_source = refined.T_target_source;
-  result.score = refined.score.score;
-  for (int i : evaluator.inliers(refined.T_target_source))
-    result.inlier_indices.push_back(sane.original_index[i]);
-  result.counters.inliers = result.inlier_indices.size();
-  if (result.counters.inliers < params.evaluation.min_inliers) {
-    fail(
-        result, RegistrationStatus::kTooFewInliers,
-        "best transform has " + std::to_string(result.counters.inliers) +
-            " inliers, fewer than evaluation.min_inliers = " + std::to_string(params.evaluation.min_inliers));
-    return;
-  }
-  result.success = true;
-  result.status = RegistrationStatus::kSuccess;
-  std::ostringstream text;
-  text << result.counters.inliers << " inliers of " << c.size() << " correspondences, score " << result.score;
-  result.message = text.str();
+  refineAndAccept(best, sane, evaluator, params, stop, result);
 }
 
 }  // namespace
-
-const char* toString(RegistrationStatus status) {
-  switch (status) {
-    case RegistrationStatus::kSuccess:
-      return "success";
-    case RegistrationStatus::kInvalidParameters:
-      return "invalid parameters";
-    case RegistrationStatus::kInvalidInput:
-      return "invalid input";
-    case RegistrationStatus::kTooFewCorrespondences:
-      return "too few correspondences";
-    case RegistrationStatus::kEmptyGraph:
-      return "empty compatibility graph";
-    case RegistrationStatus::kNoClique:
-      return "no clique";
-    case RegistrationStatus::kNoValidHypothesis:
-      return "no valid hypothesis";
-    case RegistrationStatus::kTooFewInliers:
-      return "too few inliers";
-    case RegistrationStatus::kInternalError:
-      return "internal error";
-    case RegistrationStatus::kCancelled:
-      return "cancelled";
-  }
-  return "unknown";
-}
 
 MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params,
                                   const StopFlag* stop) {

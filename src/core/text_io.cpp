@@ -93,13 +93,4 @@ void writeTransformFile(const std::string& path, const Eigen::Isometry3d& T) {
   if (!out) throw std::runtime_error("failed writing '" + path + "'");
 }
 
-double rotationErrorDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  const double cosine = ((a.linear().transpose() * b.linear()).trace() - 1.0) / 2.0;
-  return std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI;
-}
-
-double translationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a.translation() - b.translation()).norm();
-}
-
 }  // namespace mac_registration

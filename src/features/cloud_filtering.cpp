@@ -1,7 +1,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/cloud_filtering.hpp"
 
 namespace mac_registration {
 

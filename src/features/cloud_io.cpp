@@ -1,3 +1,5 @@
+#include "mac_registration/features/cloud_io.hpp"
+
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
@@ -18,7 +20,7 @@
 #include <system_error>
 #include <vector>
 
-#include "mac_registration/features/cloud_registration.hpp"
+#include "mac_registration/features/cloud_filtering.hpp"
 
 namespace mac_registration {
 namespace {

@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/feature_matching.hpp"
 
 namespace mac_registration {
 namespace {

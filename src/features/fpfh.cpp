@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/fpfh.hpp"
 
 namespace mac_registration {
 

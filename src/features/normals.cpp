@@ -1,7 +1,7 @@
 #include <pcl/features/normal_3d_omp.h>
 #include <pcl/search/kdtree.h>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/normals.hpp"
 
 namespace mac_registration {
 

@@ -6,7 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/cloud_filtering.hpp"
+#include "mac_registration/features/resolution.hpp"
 
 namespace mac_registration {
 

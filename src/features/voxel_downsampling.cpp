@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/voxel_downsampling.hpp"
 
 namespace mac_registration {
 namespace {

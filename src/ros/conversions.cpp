@@ -7,6 +7,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "mac_registration/features/cloud_filtering.hpp"
+
 namespace mac_registration {
 namespace {
 

@@ -4,6 +4,7 @@
 #include <tuple>
 
 #include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "test_support.hpp"
 

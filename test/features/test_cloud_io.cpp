@@ -8,6 +8,8 @@
 #include <iterator>
 #include <string>
 
+#include "mac_registration/features/cloud_filtering.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "temp_dir.hpp"
 

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <limits>
 
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 
 namespace mac_registration {

@@ -8,7 +8,12 @@
 #include <stdexcept>
 #include <string>
 
-#include "mac_registration/features/front_end_stages.hpp"
+#include "mac_registration/features/cloud_filtering.hpp"
+#include "mac_registration/features/feature_matching.hpp"
+#include "mac_registration/features/fpfh.hpp"
+#include "mac_registration/features/normals.hpp"
+#include "mac_registration/features/resolution.hpp"
+#include "mac_registration/features/voxel_downsampling.hpp"
 
 namespace mac_registration {
 namespace {

@@ -14,6 +14,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "mac_registration/ros/conversions.hpp"
 

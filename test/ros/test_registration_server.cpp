@@ -14,7 +14,9 @@
 
 #include <limits>
 
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "mac_registration/ros/conversions.hpp"
 

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <string>
 
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "temp_dir.hpp"
 

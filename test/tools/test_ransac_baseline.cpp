@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "../core/test_support.hpp"
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "ransac_baseline.hpp"
 

@@ -3,8 +3,10 @@
 #include <exception>
 
 #include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #ifdef MAC_REGISTRATION_WITH_FEATURES
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "ransac_baseline.hpp"
 #endif

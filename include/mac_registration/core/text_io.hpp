@@ -19,8 +19,4 @@ Eigen::Isometry3d readTransformFile(const std::string& path);
 void writeTransformFile(const std::string& path, const Eigen::Isometry3d& T);
 std::string formatTransform(const Eigen::Isometry3d& T);
 
-// Rotation error [deg] (angle of R_a^T R_b) and translation error [m] between two transforms.
-double rotationErrorDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
-double translationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
-
 }  // namespace mac_registration

@@ -1,8 +1,5 @@
 #pragma once
 
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -12,10 +9,9 @@
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/feature_params.hpp"
+#include "mac_registration/features/point_cloud.hpp"
 
 namespace mac_registration {
-
-using PointCloud = pcl::PointCloud<pcl::PointXYZ>;
 
 struct FrontEndStats {
   std::size_t source_points = 0, target_points = 0;        // given
@@ -96,25 +92,5 @@ CloudRegistrationResult registerClouds(const PointCloud& source, const PointClou
 CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
                                                  const FeatureParams& feature_params,
                                                  const MacParams& mac_params, const StopFlag* stop = nullptr);
-
-// [m] The largest |coordinate| a cloud may have where it enters the front end (loadCloud, describeCloud and
-// the ROS reader). 10^6 m holds any UTM easting and any map in a local frame up to a UTM zone's width, and
-// float32 still spaces coordinates 6.25 cm apart there, finer than an outdoor voxel; beyond it a cloud is
-// misdecoded or in global coordinates (UTM northings: 1 m steps), and its squared distances would overflow
-// the kd-trees' float arithmetic at ~10^19 m. Finer voxels need a tighter bound: see describeCloud.
-constexpr double kMaxAbsCoordinate = 1.0e6;
-
-// Why `point` (number `index` of its cloud) is refused: a finite coordinate beyond +-kMaxAbsCoordinate
-// ("point 7 has x = 3e+38 m, beyond ..."); empty when it is within. NaN/Inf are left to finitePoints.
-std::string coordinateBoundProblem(const pcl::PointXYZ& point, std::size_t index);
-
-// The same for the first such point of `cloud`.
-std::string coordinateBoundProblem(const PointCloud& cloud);
-
-// Reads a cloud from .pcd, .ply or KITTI .bin (float32 x y z intensity). The header of a .pcd / .ply is
-// checked before PCL reads it (known keywords only, consistent field lists and counts, the declared points
-// present in the file), and the coordinates against kMaxAbsCoordinate. Throws std::runtime_error naming the
-// file and the reason when it is missing, malformed, unreadable or has no points.
-PointCloud::Ptr loadCloud(const std::string& path);
 
 }  // namespace mac_registration

@@ -1,0 +1,72 @@
+#include "mac_registration/core/graph_bounds.hpp"
+
+#include <algorithm>
+#include <vector>
+
+namespace mac_registration {
+
+BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop) {
+  BoundedGraph out;
+  if (secondOrderWork(graph) <= budget) {
+    out.graph = std::move(graph);
+    return out;
+  }
+  std::vector<double> degree(graph.num_nodes);
+  std::size_t nodes = 0;
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    degree[i] = graph.degree(i);
+    nodes += graph.degree(i) > 0;
+  }
+  do {
+    nodes = nodes * 7 / 10;
+    out.graph = keepNodes(graph, strongestNodes(degree, nodes));
+  } while (nodes > 3 && !stopRequested(stop) && secondOrderWork(out.graph) > budget);
+  out.reduced = true;
+  out.kept_nodes = nodes;
+  out.removed_edges = graph.numEdges() - out.graph.numEdges();
+  return out;
+}
+
+BoundedGraph pruneDenseGraph(CompatibilityGraph graph, double dense_mean_degree) {
+  BoundedGraph out;
+  const bool dense = dense_mean_degree > 0.0 && graph.num_nodes > 0 &&
+                     2.0 * double(graph.numEdges()) / graph.num_nodes > dense_mean_degree;
+  if (!dense) {
+    out.graph = std::move(graph);
+    return out;
+  }
+  out.graph = withoutWeakEdges(graph, otsuEdgeThreshold(graph));
+  out.reduced = true;
+  out.removed_edges = graph.numEdges() - out.graph.numEdges();
+  return out;
+}
+
+// Each round keeps at most max_degeneracy of the over-dense nodes, and adding k nodes raises the
+// degeneracy by at most k, so one or two rounds usually suffice.
+CompatibilityGraph thinDenseCores(const CompatibilityGraph& graph, int max_degeneracy, const StopFlag* stop,
+                                  std::size_t& thinned_nodes) {
+  CompatibilityGraph current = graph;
+  std::vector<char> keep(graph.num_nodes, 1);
+  for (int round = 0; round < 8 && !stopRequested(stop); ++round) {
+    const std::vector<int> core = coreNumbers(current);
+    std::vector<double> strength = nodeStrength(current);
+    bool over = false;
+    for (int i = 0; i < current.num_nodes; ++i) {
+      if (core[i] > max_degeneracy) {
+        over = true;
+      } else {
+        strength[i] = -1.0;  // not a candidate
+      }
+    }
+    if (!over) break;
+    const std::vector<char> strongest = strongestNodes(strength, static_cast<std::size_t>(max_degeneracy));
+    for (int i = 0; i < current.num_nodes; ++i) {
+      if (core[i] > max_degeneracy && !strongest[i]) keep[i] = 0;
+    }
+    current = keepNodes(graph, keep);
+  }
+  thinned_nodes = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 0));
+  return current;
+}
+
+}  // namespace mac_registration
