@@ -13,6 +13,14 @@ CRITERIA = {"indoor": (15.0, 0.30), "outdoor": (5.0, 0.60)}
 TRUTH_KIND = {"indoor": "ground truth", "outdoor": "reference (fast_gicp's estimate)"}
 
 
+
+def status_name(status):
+    """The name of a RegistrationResult.status constant, e.g. "success" or "too few inliers"."""
+    for name in dir(RegistrationResult):
+        if name.isupper() and getattr(RegistrationResult, name) == status:
+            return name.lower().replace("_", " ")
+    return "status %d" % status
+
 def quaternion_to_matrix(q):
     x, y, z, w = q.x, q.y, q.z, q.w
     return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -57,7 +65,7 @@ class Monitor:
         # The ground truth is published at the same stamp, before the clouds are registered.
         truth = self.truth.get((pair, msg.header.stamp))
         lines = ["[%s] %s <- %s at t=%.1f s: %s" % (pair, msg.header.frame_id, msg.child_frame_id,
-                                                    msg.header.stamp.to_sec(), msg.status)]
+                                                    msg.header.stamp.to_sec(), status_name(msg.status))]
         if msg.success:
             lines.append("  T_target_source:\n" + matrix_text(msg.transform))
             if truth is not None:

@@ -194,9 +194,64 @@ geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T) {
   return msg;
 }
 
+namespace {
+
+using ResultMsg = mac_registration::RegistrationResult;
+
+// Every enum value needs its case (-Wswitch, an error in CI), and each case is checked below to be the
+// same number as the message's constant: the enum and the message cannot drift apart unnoticed.
+constexpr std::uint8_t statusConstant(RegistrationStatus status) {
+  switch (status) {
+    case RegistrationStatus::kSuccess:
+      return ResultMsg::SUCCESS;
+    case RegistrationStatus::kInvalidParameters:
+      return ResultMsg::INVALID_PARAMETERS;
+    case RegistrationStatus::kInvalidInput:
+      return ResultMsg::INVALID_INPUT;
+    case RegistrationStatus::kTooFewCorrespondences:
+      return ResultMsg::TOO_FEW_CORRESPONDENCES;
+    case RegistrationStatus::kEmptyGraph:
+      return ResultMsg::EMPTY_GRAPH;
+    case RegistrationStatus::kNoClique:
+      return ResultMsg::NO_CLIQUE;
+    case RegistrationStatus::kNoValidHypothesis:
+      return ResultMsg::NO_VALID_HYPOTHESIS;
+    case RegistrationStatus::kTooFewInliers:
+      return ResultMsg::TOO_FEW_INLIERS;
+    case RegistrationStatus::kInternalError:
+      return ResultMsg::INTERNAL_ERROR;
+    case RegistrationStatus::kCancelled:
+      return ResultMsg::CANCELLED;
+  }
+  return ResultMsg::INTERNAL_ERROR;
+}
+
+constexpr bool mirrors(RegistrationStatus status) {
+  return statusConstant(status) == static_cast<std::uint8_t>(status);
+}
+static_assert(mirrors(RegistrationStatus::kSuccess) && mirrors(RegistrationStatus::kInvalidParameters) &&
+                  mirrors(RegistrationStatus::kInvalidInput) &&
+                  mirrors(RegistrationStatus::kTooFewCorrespondences) &&
+                  mirrors(RegistrationStatus::kEmptyGraph) && mirrors(RegistrationStatus::kNoClique) &&
+                  mirrors(RegistrationStatus::kNoValidHypothesis) &&
+                  mirrors(RegistrationStatus::kTooFewInliers) &&
+                  mirrors(RegistrationStatus::kInternalError) && mirrors(RegistrationStatus::kCancelled),
+              "RegistrationResult.msg's status constants must equal mac_registration::RegistrationStatus");
+
+}  // namespace
+
+std::uint8_t toStatusMsg(RegistrationStatus status) { return statusConstant(status); }
+
+std::string statusName(std::uint8_t status) {
+  if (status == ResultMsg::MISSING_ODOMETRY) return "missing odometry";
+  if (status <= static_cast<std::uint8_t>(RegistrationStatus::kCancelled))
+    return toString(static_cast<RegistrationStatus>(status));
+  return "unknown status " + std::to_string(status);
+}
+
 void fillResultMsg(const MacResult& r, mac_registration::RegistrationResult& msg) {
   msg.success = r.success;
-  msg.status = toString(r.status);
+  msg.status = toStatusMsg(r.status);
   msg.message = r.message;
   msg.warnings.insert(msg.warnings.end(), r.warnings.begin(), r.warnings.end());
   msg.transform = toTransformMsg(r.success ? r.T_target_source : Eigen::Isometry3d::Identity());

@@ -24,15 +24,14 @@ std::string joined(const std::vector<std::string>& lines) {
 mac_registration::RegistrationResult invalidInput(const std::string& message) {
   mac_registration::RegistrationResult msg;
   msg.success = false;
-  msg.status = toString(RegistrationStatus::kInvalidInput);
+  msg.status = mac_registration::RegistrationResult::INVALID_INPUT;
   msg.message = message;
   msg.transform.rotation.w = 1.0;
   return msg;
 }
 
 // A failure after the registration itself: the counters stay, the transform goes back to the identity.
-void markFailed(mac_registration::RegistrationResult& msg, const std::string& status,
-                const std::string& message) {
+void markFailed(mac_registration::RegistrationResult& msg, std::uint8_t status, const std::string& message) {
   msg.success = false;
   msg.status = status;
   msg.message = message;
@@ -414,13 +413,13 @@ void RegistrationServer::publishTf(Outcome& outcome, const NodeParams& node) {
         << " within tf_timeout = " << node.tf_timeout << " s (" << e.what() << "); the registration found "
         << msg.inliers << " inliers, " << msg.header.frame_id << " -> " << node.odom_frame
         << " keeps its previous correction";
-    return markFailed(msg, "missing odometry", why.str());
+    return markFailed(msg, mac_registration::RegistrationResult::MISSING_ODOMETRY, why.str());
   }
   const Eigen::Isometry3d T_target_odom =
       outcome.T_target_source * tf2::transformToEigen(odom_source).inverse();
   if (!T_target_odom.matrix().allFinite()) {
     return markFailed(
-        msg, toString(RegistrationStatus::kInternalError),
+        msg, mac_registration::RegistrationResult::INTERNAL_ERROR,
         "map_odom mode: the " + msg.header.frame_id + " -> " + node.odom_frame + " transform is not finite");
   }
   map_odom_->setCorrection(msg.header.frame_id, node.odom_frame, T_target_odom);
@@ -432,7 +431,7 @@ void RegistrationServer::publish(Outcome& outcome) {
   auto& msg = outcome.msg;
   const ServerConfig cfg = config();
   if (msg.success && !outcome.T_target_source.matrix().allFinite()) {
-    markFailed(msg, toString(RegistrationStatus::kInternalError), "the transform is not finite");
+    markFailed(msg, mac_registration::RegistrationResult::INTERNAL_ERROR, "the transform is not finite");
   }
   if (msg.success && cfg.node.publish_tf) publishTf(outcome, cfg.node);
   result_pub_.publish(msg);
@@ -444,8 +443,8 @@ void RegistrationServer::publish(Outcome& outcome) {
         msg.header.frame_id.c_str(), msg.child_frame_id.c_str(), t.x(), t.y(), t.z(), angle, msg.inliers,
         msg.correspondences, msg.time_total_ms);
   } else {
-    ROS_WARN_STREAM_THROTTLE(1.0,
-                             "mac_registration: registration failed (" << msg.status << "): " << msg.message);
+    ROS_WARN_STREAM_THROTTLE(
+        1.0, "mac_registration: registration failed (" << statusName(msg.status) << "): " << msg.message);
   }
   const std_msgs::Header& target_header = msg.header;
   if (msg.success && outcome.source_cloud && aligned_pub_.getNumSubscribers() > 0) {

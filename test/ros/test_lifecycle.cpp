@@ -322,9 +322,9 @@ TEST(Lifecycle, ALongCallHoldsUpNothingAndUnloadingStopsIt) {
   const double call_s = (ros::WallTime::now() - start).toSec();
   RecordProperty("unload_seconds", std::to_string(unload_s));
   std::printf("unload during a registration: %.2f s (the call returned after %.2f s: %s)\n", unload_s, call_s,
-              answered ? result.status.c_str() : "no answer");
+              answered ? statusName(result.status).c_str() : "no answer");
   if (answered) {
-    EXPECT_EQ(result.status, "cancelled") << result.message;
+    EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
   }
   EXPECT_FALSE(isLoaded("/long"));  // and the manager still answers
 }
@@ -379,10 +379,10 @@ TEST(Lifecycle, InterruptingTheNodeStopsALongRegistration) {
   const auto [answered, result] = call.result.get();
   RecordProperty("sigint_exit_seconds", std::to_string(exit_s));
   std::printf("SIGINT during a registration: the node exited after %.2f s (the call: %s)\n", exit_s,
-              answered ? result.status.c_str() : "no answer");
+              answered ? statusName(result.status).c_str() : "no answer");
   EXPECT_EQ(node.exitStatus(), 0) << node.output();
   if (answered) {
-    EXPECT_EQ(result.status, "cancelled") << result.message;
+    EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
   }
 }
 

@@ -76,7 +76,7 @@ class MalformedCloudsTest(unittest.TestCase):
 
     def expect_refused(self, result, reason, case):
         self.assertFalse(result.success, "%s: accepted (%s)" % (case, result.message))
-        self.assertEqual(result.status, "invalid input", "%s: %s" % (case, result.message))
+        self.assertEqual(result.status, RegistrationResult.INVALID_INPUT, "%s: %s" % (case, result.message))
         self.assertIn(reason, result.message, case)
 
     def wait_for_result(self, frame, timeout=10.0):

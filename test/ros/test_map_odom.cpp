@@ -92,7 +92,7 @@ TEST_F(MapOdomTest, MissingOdometryIsAFailureAndKeepsThePreviousCorrection) {
 
   const auto result = registerSet(request("frame_without_odometry"));
   EXPECT_FALSE(result.success);
-  EXPECT_EQ(result.status, "missing odometry");
+  EXPECT_EQ(result.status, mac_registration::RegistrationResult::MISSING_ODOMETRY);
   EXPECT_NE(result.message.find("odom <- frame_without_odometry"), std::string::npos) << result.message;
   EXPECT_TRUE(toEigen(result.transform).isApprox(Eigen::Isometry3d::Identity()));
 

@@ -61,7 +61,7 @@ sensor_msgs::PointCloud2 redkitchenCloud(const std::string& file, const std::str
 }
 
 void expectWithinBenchmarkCriterion(const mac_registration::RegistrationResult& result) {
-  ASSERT_TRUE(result.success) << result.status << ": " << result.message;
+  ASSERT_TRUE(result.success) << statusName(result.status) << ": " << result.message;
   const Eigen::Isometry3d truth = readTransformFile(kDemoData + "/redkitchen_4_0/T_target_source_gt.txt");
   EXPECT_LE(rotationErrorDeg(toEigen(result.transform), truth), 15.0);
   EXPECT_LE(translationError(toEigen(result.transform), truth), 0.30);
@@ -93,7 +93,7 @@ TEST_F(RegistrationServerTest, RegisterCorrespondencesServiceMeetsTheBenchmarkCr
   srv.request.correspondences = redkitchenCorrespondences("fragment_59", "fragment_24");
   ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
   const auto& result = srv.response.result;
-  ASSERT_TRUE(result.success) << result.status << ": " << result.message;
+  ASSERT_TRUE(result.success) << statusName(result.status) << ": " << result.message;
   const Eigen::Isometry3d truth = readTransformFile(kData + "/redkitchen_24_59/T_target_source_gt.txt");
   EXPECT_LE(rotationErrorDeg(toEigen(result.transform), truth), 15.0);
   EXPECT_LE(translationError(toEigen(result.transform), truth), 0.30);
@@ -245,7 +245,7 @@ TEST_F(RegistrationServerTest, MismatchedCorrespondencesFailWithAReason) {
   srv.request.correspondences.target_points.pop_back();
   ASSERT_TRUE(ros::service::call("/mac_registration/register_correspondences", srv));
   EXPECT_FALSE(srv.response.result.success);
-  EXPECT_EQ(srv.response.result.status, "invalid input");
+  EXPECT_EQ(srv.response.result.status, mac_registration::RegistrationResult::INVALID_INPUT);
   // Identity, never garbage, on failure.
   EXPECT_TRUE(toEigen(srv.response.result.transform).isApprox(Eigen::Isometry3d::Identity()));
 }
@@ -278,7 +278,7 @@ TEST_F(RegistrationServerTest, ReconfiguredThresholdsApplyToTheNextRegistration)
   reconfigure(0.1, 300);
   const auto demanding = registerRealSet();
   EXPECT_FALSE(demanding.success);
-  EXPECT_EQ(demanding.status, "too few inliers") << demanding.message;
+  EXPECT_EQ(demanding.status, mac_registration::RegistrationResult::TOO_FEW_INLIERS) << demanding.message;
   int min_inliers = 0;
   EXPECT_TRUE(ros::param::get("/mac_registration/evaluation/min_inliers", min_inliers));
   EXPECT_EQ(min_inliers, 300);  // the private parameter follows the reconfiguration

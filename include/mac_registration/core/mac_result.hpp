@@ -2,13 +2,15 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace mac_registration {
 
-enum class RegistrationStatus {
-  kSuccess,
+// The values are part of the ROS interface (RegistrationResult.status): append, never renumber.
+enum class RegistrationStatus : std::uint8_t {
+  kSuccess = 0,
   kInvalidParameters,      // validateParams() refused the parameters; message lists why
   kInvalidInput,           // e.g. source and target counts differ
   kTooFewCorrespondences,  // fewer than 3 usable (finite) correspondences

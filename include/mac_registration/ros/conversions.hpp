@@ -5,6 +5,7 @@
 #include <mac_registration/RegistrationResult.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <cstdint>
 #include <string>
 
 #include "mac_registration/features/cloud_registration.hpp"
@@ -39,6 +40,12 @@ mac_registration::Correspondences toCorrespondencesMsg(const CorrespondenceSet& 
 
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T);
 Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg);
+
+// RegistrationResult.status of a core outcome: the same number (the message's constants mirror the enum).
+std::uint8_t toStatusMsg(RegistrationStatus status);
+
+// The words of a RegistrationResult.status, for logs ("too few inliers", "missing odometry").
+std::string statusName(std::uint8_t status);
 
 // Fills the core part of a result message (status, transform, counters, times).
 void fillResultMsg(const MacResult& result, mac_registration::RegistrationResult& msg);
