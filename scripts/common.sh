@@ -41,6 +41,10 @@ install_dependencies() {
 build_workspace() {
   mkdir -p "$WORKSPACE/src"
   ln -sfn "$PROJECT_DIR" "$WORKSPACE/src/mac_registration"
+  # catkin writes the environment its tests run in (build/catkin_generated/setup_cached.sh) when it first
+  # configures, listing only folders that exist then: without this one the rostests' Python nodes would
+  # not find the package's messages on a fresh workspace.
+  mkdir -p "$WORKSPACE/devel/lib/python3/dist-packages"
   : >"$WORKSPACE/build.log"
   local targets=(all)
   [ "${1:-}" = tests ] && targets+=(tests)
