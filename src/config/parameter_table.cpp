@@ -5,6 +5,7 @@
 #include <map>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 namespace mac_registration {
 namespace {
@@ -96,34 +97,42 @@ Parameter facts(std::string key, ParameterType type, std::string unit, double mi
   return p;
 }
 
+// A number: its field is read as a double (reals) or an integer, and written through `convert` (asReal,
+// asInteger or asCount), which refuses what the field's type cannot hold.
+template <typename Field, typename Convert>
+Parameter numeric(ParameterType type, std::string key, Field field, Convert convert, std::string unit,
+                  double min, double max, std::string doc, bool zero_means_off) {
+  Parameter p = facts(std::move(key), type, std::move(unit), min, max, zero_means_off, std::move(doc));
+  p.get = [field, type](const Config& c) -> ParameterValue {
+    if (type == ParameterType::kReal) return double(field(c));
+    return static_cast<long long>(field(c));
+  };
+  p.set = [field, convert](Config& c, const ParameterValue& v) {
+    using Value = std::decay_t<decltype(field(c))>;
+    field(c) = static_cast<Value>(convert(v));
+  };
+  return p;
+}
+
 template <typename Field>
 Parameter real(std::string key, Field field, std::string unit, double min, double max, std::string doc,
                bool zero_means_off = false) {
-  Parameter p =
-      facts(std::move(key), ParameterType::kReal, std::move(unit), min, max, zero_means_off, std::move(doc));
-  p.get = [field](const Config& c) -> ParameterValue { return double(field(c)); };
-  p.set = [field](Config& c, const ParameterValue& v) { field(c) = asReal(v); };
-  return p;
+  return numeric(ParameterType::kReal, std::move(key), field, asReal, std::move(unit), min, max,
+                 std::move(doc), zero_means_off);
 }
 
 template <typename Field>
 Parameter integer(std::string key, Field field, std::string unit, double min, double max, std::string doc,
                   bool zero_means_off = false) {
-  Parameter p = facts(std::move(key), ParameterType::kInteger, std::move(unit), min, max, zero_means_off,
-                      std::move(doc));
-  p.get = [field](const Config& c) -> ParameterValue { return (long long)(field(c)); };
-  p.set = [field](Config& c, const ParameterValue& v) { field(c) = static_cast<int>(asInteger(v)); };
-  return p;
+  return numeric(ParameterType::kInteger, std::move(key), field, asInteger, std::move(unit), min, max,
+                 std::move(doc), zero_means_off);
 }
 
 template <typename Field>
 Parameter count(std::string key, Field field, std::string unit, double min, double max, std::string doc,
                 bool zero_means_off = false) {
-  Parameter p =
-      facts(std::move(key), ParameterType::kCount, std::move(unit), min, max, zero_means_off, std::move(doc));
-  p.get = [field](const Config& c) -> ParameterValue { return (long long)(field(c)); };
-  p.set = [field](Config& c, const ParameterValue& v) { field(c) = asCount(v); };
-  return p;
+  return numeric(ParameterType::kCount, std::move(key), field, asCount, std::move(unit), min, max,
+                 std::move(doc), zero_means_off);
 }
 
 template <typename Field>
