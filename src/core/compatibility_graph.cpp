@@ -167,6 +167,105 @@ UpperRows rowsOfNodes(UpperRows points_rows, const std::vector<int>& node_of_poi
   return rows;
 }
 
+// Sum over j's list, in its ascending order, of row[k] * S_jk: with row = i's weights scattered densely (0
+// off i's list, and adding +0 changes no float) this is the common-neighbour sum of edge (i, j).
+float listSum(const CompatibilityGraph& fog, const float* row, int j) {
+  float sum = 0.0f;
+  for (auto q = fog.offsets[j]; q < fog.offsets[j + 1]; ++q) sum += row[fog.neighbours[q]] * fog.weights[q];
+  return sum;
+}
+
+// out[p] = listSum(fog, row, j) for every first-order edge (i, j) at list position p in [first, last).
+// One sum is a chain of dependent additions whose latency bounds a loop over one list; kLanes edges are
+// summed side by side, each lane taking the next edge as soon as its own ends, so that the chains overlap
+// while each keeps its own order (every sum is exactly listSum's). Short lists are summed one by one: there
+// the lanes cost more than the overlap gains. Cross-lane vectorization is off: packing the lanes' scalar
+// loads into vectors costs more shuffles than it saves.
+__attribute__((optimize("no-tree-slp-vectorize"))) void commonNeighbourSums(const CompatibilityGraph& fog,
+                                                                            const float* row,
+                                                                            std::int64_t first,
+                                                                            std::int64_t last, float* out) {
+  constexpr int kLanes = 4;
+  constexpr std::int64_t kMinMeanLength = 64;
+  const int* neighbours = fog.neighbours.data();
+  const float* weights = fog.weights.data();
+  std::int64_t work = 0;
+  for (auto p = first; p < last; ++p) work += fog.degree(neighbours[p]);
+  std::int64_t next = first;
+  if (last - first >= kLanes && work >= kMinMeanLength * (last - first)) {
+    const int* list[kLanes];
+    const float* list_weight[kLanes];
+    std::int64_t left[kLanes], slot[kLanes];
+    float sum[kLanes];
+    auto start = [&](int l) {
+      const int j = neighbours[next];
+      list[l] = neighbours + fog.offsets[j], list_weight[l] = weights + fog.offsets[j];
+      left[l] = fog.degree(j), slot[l] = next++, sum[l] = 0.0f;
+    };
+    for (int l = 0; l < kLanes; ++l) start(l);
+    bool all_busy = true;
+    while (all_busy) {
+      std::int64_t steps = left[0];
+      for (int l = 1; l < kLanes; ++l) steps = std::min(steps, left[l]);
+      for (std::int64_t t = 0; t < steps; ++t) {
+#pragma GCC unroll 4
+        for (int l = 0; l < kLanes; ++l) sum[l] += row[list[l][t]] * list_weight[l][t];
+      }
+      for (int l = 0; l < kLanes; ++l) {
+        list[l] += steps, list_weight[l] += steps, left[l] -= steps;
+        if (left[l] > 0) continue;
+        out[slot[l]] = sum[l];
+        if (next < last) {
+          start(l);
+        } else {
+          all_busy = false;
+        }
+      }
+    }
+    for (int l = 0; l < kLanes; ++l) {
+      if (left[l] == 0) continue;
+      float rest = sum[l];
+      for (std::int64_t t = 0; t < left[l]; ++t) rest += row[list[l][t]] * list_weight[l][t];
+      out[slot[l]] = rest;
+    }
+  }
+  for (; next < last; ++next) out[next] = listSum(fog, row, neighbours[next]);
+}
+
+// The second-order graph from the common-neighbour sums of the upper edges of the first-order graph
+// `structure` (aligned with its lists): the edges whose sum is positive, weighted by S_ij * sum (Eq. 4).
+CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure,
+                                        const std::vector<float>& common) {
+  const int n = structure.num_nodes;
+  CompatibilityGraph graph;
+  graph.num_nodes = n;
+  std::vector<std::int64_t> degree(n, 0);
+  for (int i = 0; i < n; ++i) {
+    for (auto p = structure.offsets[i]; p < structure.offsets[i + 1]; ++p) {
+      const int j = structure.neighbours[p];
+      if (j > i && common[p] > 0.0f) ++degree[i], ++degree[j];
+    }
+  }
+  graph.offsets.assign(n + 1, 0);
+  std::partial_sum(degree.begin(), degree.end(), graph.offsets.begin() + 1);
+  graph.neighbours.resize(graph.offsets.back());
+  graph.weights.resize(graph.offsets.back());
+  // As in graphFromUpperRows: rows in ascending order fill every list in ascending order.
+  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
+  for (int i = 0; i < n; ++i) {
+    for (auto p = structure.offsets[i]; p < structure.offsets[i + 1]; ++p) {
+      const int j = structure.neighbours[p];
+      if (j <= i || !(common[p] > 0.0f)) continue;
+      const float weight = structure.weights[p] * common[p];
+      graph.neighbours[cursor[i]] = j;
+      graph.weights[cursor[i]++] = weight;
+      graph.neighbours[cursor[j]] = i;
+      graph.weights[cursor[j]++] = weight;
+    }
+  }
+  return graph;
+}
+
 }  // namespace
 
 float CompatibilityGraph::weight(int a, int b) const {
@@ -259,7 +358,8 @@ double secondOrderWork(const CompatibilityGraph& graph) {
 CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
                                          const StopFlag* stop) {
   const int n = fog.num_nodes;
-  UpperRows rows(n);
+  // Common-neighbour sum of each upper edge, at its position in the first-order lists (0 elsewhere).
+  std::vector<float> common(fog.neighbours.size(), 0.0f);
 #pragma omp parallel num_threads(num_threads)
   {
     // Row i's weights scattered densely, so that a common neighbour k of (i, j) is found by one load while
@@ -270,18 +370,14 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       if (stopRequested(stop)) continue;
       const auto begin = fog.offsets[i], end = fog.offsets[i + 1];
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = fog.weights[p];
-      for (auto p = begin; p < end; ++p) {
-        const int j = fog.neighbours[p];
-        if (j < i) continue;
-        float common = 0.0f;
-        for (auto q = fog.offsets[j]; q < fog.offsets[j + 1]; ++q)
-          common += row_i[fog.neighbours[q]] * fog.weights[q];
-        if (common > 0.0f) rows[i].push_back({j, fog.weights[p] * common});
-      }
+      // The upper edges of i are the tail of its ascending list.
+      const auto upper = std::upper_bound(fog.neighbours.begin() + begin, fog.neighbours.begin() + end, i) -
+                         fog.neighbours.begin();
+      commonNeighbourSums(fog, row_i.data(), upper, end, common.data());
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }
   }
-  return graphFromUpperRows(n, rows);
+  return graphOfTriangleEdges(fog, common);
 }
 
 CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {

@@ -290,6 +290,59 @@ TEST(SecondOrderGraph, WeightsByHand) {
   EXPECT_DOUBLE_EQ(secondOrderWork(twoTrianglesAndPendant()), 3 + 3 + 3 + 3 + 3 + 1);  // deg(j) per edge i<j
 }
 
+// A random graph with weights in (0.5, 1]: each pair an edge with probability `density`.
+CompatibilityGraph randomWeightedGraph(int n, double density, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<std::vector<UpperEdge>> rows(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      if (u(rng) < density) rows[i].push_back({j, static_cast<float>(0.5 + 0.5 * u(rng))});
+    }
+  }
+  return graphFromUpperRows(n, rows);
+}
+
+// Eq. 4 straight from a dense matrix: for every edge i < j, the float sum over k = 0, 1, ... of
+// S_ik * S_jk (every k, adding the zeros of non-neighbours), times S_ij; edges whose sum is 0 dropped.
+CompatibilityGraph denseSecondOrder(const CompatibilityGraph& fog) {
+  const int n = fog.num_nodes;
+  std::vector<float> s(std::size_t(n) * n, 0.0f);
+  for (int i = 0; i < n; ++i) {
+    for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p)
+      s[std::size_t(i) * n + fog.neighbours[p]] = fog.weights[p];
+  }
+  std::vector<std::vector<UpperEdge>> rows(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const float s_ij = s[std::size_t(i) * n + j];
+      if (s_ij == 0.0f) continue;
+      float common = 0.0f;
+      for (int k = 0; k < n; ++k) common += s[std::size_t(i) * n + k] * s[std::size_t(j) * n + k];
+      if (common > 0.0f) rows[i].push_back({j, s_ij * common});
+    }
+  }
+  return graphFromUpperRows(n, rows);
+}
+
+// The sums run several edges side by side on long lists and one by one on short ones: either way each must
+// be the plain sum in ascending order, bit for bit, whatever the thread count. Densities from a few
+// neighbours (short lists, edges in no triangle) to 60 % (long lists, every path of the lanes).
+TEST(SecondOrderGraph, BitIdenticalToTheDenseSum) {
+  for (const double density : {0.01, 0.05, 0.3, 0.6}) {
+    const CompatibilityGraph fog = randomWeightedGraph(400, density, 11);
+    const CompatibilityGraph expected = denseSecondOrder(fog);
+    for (const int threads : {1, 2}) {
+      const CompatibilityGraph sog = buildSecondOrderGraph(fog, threads);
+      expectValidGraph(sog);
+      EXPECT_EQ(sog.offsets, expected.offsets) << "density " << density << ", " << threads << " threads";
+      EXPECT_EQ(sog.neighbours, expected.neighbours)
+          << "density " << density << ", " << threads << " threads";
+      EXPECT_EQ(sog.weights, expected.weights) << "density " << density << ", " << threads << " threads";
+    }
+  }
+}
+
 TEST(CompatibilityGraph, KeepNodes) {
   const CompatibilityGraph kept = keepNodes(twoTrianglesAndPendant(), {0, 1, 1, 1, 0});
   expectValidGraph(kept);
