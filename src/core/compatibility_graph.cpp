@@ -1,5 +1,7 @@
 #include "mac_registration/core/compatibility_graph.hpp"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -40,6 +42,67 @@ __attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(cons
   }
 }
 
+// The pairs (i, j > i) of one row that pass the test d^2 <= max_d2, compacted: candidates[c] = j and
+// candidate_d2[c] = d^2 for the found ones, ascending in j; returns how many. `d2` is scratch of n floats.
+// Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
+int compatibleInRowPortable(const float* sx, const float* sy, const float* sz, const float* tx,
+                            const float* ty, const float* tz, int i, int n, float max_d2, float* d2,
+                            int* candidates, float* candidate_d2) {
+  pairResidualsSquared(sx, sy, sz, tx, ty, tz, i, i + 1, n, d2);
+  int found = 0;
+  for (int j = i + 1; j < n; ++j) {
+    candidates[found] = j;
+    candidate_d2[found] = d2[j - i - 1];
+    found += d2[j - i - 1] <= max_d2;
+  }
+  return found;
+}
+
+// |p_i - p_j| for the valid ones of the sixteen points from j, as pairResidualsSquared computes it.
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) inline __m512 distances16(
+    const float* x, const float* y, const float* z, int j, __mmask16 valid, __m512 xi, __m512 yi, __m512 zi) {
+  const __m512 dx = _mm512_sub_ps(xi, _mm512_maskz_loadu_ps(valid, x + j));
+  const __m512 dy = _mm512_sub_ps(yi, _mm512_maskz_loadu_ps(valid, y + j));
+  const __m512 dz = _mm512_sub_ps(zi, _mm512_maskz_loadu_ps(valid, z + j));
+  return _mm512_maskz_sqrt_ps(
+      valid,
+      _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz)));
+}
+
+// The same with AVX-512: sixteen pairs at a time, the test's mask compressing the passing ones straight
+// into place. The same IEEE operations in the same order as pairResidualsSquared, so the same pairs and d^2
+// bit for bit: AVX-512 has FMA, and contracting a multiply and an add into one would round differently.
+__attribute__((target("avx512f,popcnt"), optimize("fp-contract=off"))) int compatibleInRowAvx512(
+    const float* sx, const float* sy, const float* sz, const float* tx, const float* ty, const float* tz,
+    int i, int n, float max_d2, float*, int* candidates, float* candidate_d2) {
+  const __m512 six = _mm512_set1_ps(sx[i]), siy = _mm512_set1_ps(sy[i]), siz = _mm512_set1_ps(sz[i]);
+  const __m512 tix = _mm512_set1_ps(tx[i]), tiy = _mm512_set1_ps(ty[i]), tiz = _mm512_set1_ps(tz[i]);
+  const __m512 bound = _mm512_set1_ps(max_d2);
+  const __m512i step = _mm512_set1_epi32(16);
+  __m512i index = _mm512_add_epi32(_mm512_set1_epi32(i + 1),
+                                   _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+  int found = 0;
+  for (int j = i + 1; j < n; j += 16) {
+    const __mmask16 valid = n - j >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - j)) - 1u);
+    const __m512 difference = _mm512_sub_ps(distances16(sx, sy, sz, j, valid, six, siy, siz),
+                                            distances16(tx, ty, tz, j, valid, tix, tiy, tiz));
+    const __m512 d2 = _mm512_mul_ps(difference, difference);
+    const __mmask16 pass = _mm512_mask_cmp_ps_mask(valid, d2, bound, _CMP_LE_OQ);
+    _mm512_mask_compressstoreu_epi32(candidates + found, pass, index);
+    _mm512_mask_compressstoreu_ps(candidate_d2 + found, pass, d2);
+    found += __builtin_popcount(pass);
+    index = _mm512_add_epi32(index, step);
+  }
+  return found;
+}
+
+using CompatibleInRow = int (*)(const float*, const float*, const float*, const float*, const float*,
+                                const float*, int, int, float, float*, int*, float*);
+
+CompatibleInRow compatibleInRowForThisCpu() {
+  return __builtin_cpu_supports("avx512f") ? compatibleInRowAvx512 : compatibleInRowPortable;
+}
+
 // Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the
 // correspondences) so that float keeps millimetres even for map-sized coordinates; the loops over it
 // vectorize.
@@ -70,10 +133,12 @@ struct PointsSoA {
 
   int size() const { return static_cast<int>(sx.size()); }
 
-  // d^2 of pair (i, j) for every j in [begin, end), written to out[j - begin].
-  void residualsSquared(int i, int begin, int end, float* out) const {
-    pairResidualsSquared(sx.data(), sy.data(), sz.data(), tx.data(), ty.data(), tz.data(), i, begin, end,
-                         out);
+  // The pairs (i, j > i) with d^2 <= max_d2: their j ascending in candidates, their d^2 in candidate_d2;
+  // returns how many. `scratch` holds size() floats.
+  int compatibleInRow(int i, float max_d2, float* scratch, int* candidates, float* candidate_d2) const {
+    static const CompatibleInRow kernel = compatibleInRowForThisCpu();
+    return kernel(sx.data(), sy.data(), sz.data(), tx.data(), ty.data(), tz.data(), i, size(), max_d2,
+                  scratch, candidates, candidate_d2);
   }
 
  private:
@@ -107,29 +172,21 @@ PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std
   std::atomic<bool> overflow{false};
 #pragma omp parallel num_threads(num_threads)
   {
-    std::vector<float> d2(n);
+    std::vector<float> d2(n), candidate_d2(n);
     std::vector<int> candidates(n);
     std::vector<int> degree(n, 0);  // this thread's counts, summed below: integers, so in any order
 #pragma omp for schedule(dynamic, 16)
     for (int i = 0; i < n; ++i) {
       if (stopRequested(stop)) continue;
-      points.residualsSquared(i, i + 1, n, d2.data());
-      // Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
-      int found = 0;
-      for (int j = i + 1; j < n; ++j) {
-        candidates[found] = j;
-        found += d2[j - i - 1] <= max_d2;
-      }
+      const int found = points.compatibleInRow(i, max_d2, d2.data(), candidates.data(), candidate_d2.data());
       degree[i] += found;
       for (int c = 0; c < found; ++c) ++degree[candidates[c]];
       if (total.fetch_add(found) + found > max_edges) overflow = true;
       if (overflow.load(std::memory_order_relaxed)) continue;
       auto& row = pass.rows[i];
       row.reserve(found);
-      for (int c = 0; c < found; ++c) {
-        const int j = candidates[c];
-        row.push_back({j, scoreFromResidualSquared(d2[j - i - 1], params)});
-      }
+      for (int c = 0; c < found; ++c)
+        row.push_back({candidates[c], scoreFromResidualSquared(candidate_d2[c], params)});
     }
 #pragma omp critical
     for (int i = 0; i < n; ++i) pass.degree[i] += degree[i];
