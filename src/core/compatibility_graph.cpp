@@ -323,6 +323,33 @@ CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure,
   return graph;
 }
 
+// The graph with the list entries (node i, position p) that `keep` accepts. `keep` must accept an edge in
+// both of its directions or in neither; the lists stay ascending, as a filter of ascending lists. Two
+// sequential passes over the lists, where rebuilding from upper rows would scatter every edge twice.
+template <typename KeepEntry>
+CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep) {
+  const int n = graph.num_nodes;
+  CompatibilityGraph out;
+  out.num_nodes = n;
+  out.offsets.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    std::int64_t kept = 0;
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) kept += keep(i, p) ? 1 : 0;
+    out.offsets[i + 1] = out.offsets[i] + kept;
+  }
+  out.neighbours.resize(out.offsets.back());
+  out.weights.resize(out.offsets.back());
+  std::int64_t next = 0;
+  for (int i = 0; i < n; ++i) {
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+      if (!keep(i, p)) continue;
+      out.neighbours[next] = graph.neighbours[p];
+      out.weights[next++] = graph.weights[p];
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 float CompatibilityGraph::weight(int a, int b) const {
@@ -437,16 +464,27 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
   return graphOfTriangleEdges(fog, common);
 }
 
-CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
-  UpperRows rows(graph.num_nodes);
+double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
+  std::vector<int> kept_degree(graph.num_nodes, 0);
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    if (!keep[i]) continue;
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p)
+      kept_degree[i] += keep[graph.neighbours[p]] != 0;
+  }
+  // Integers below 2^53: the double sum is exact, the same as secondOrderWork of the kept graph.
+  double work = 0.0;
   for (int i = 0; i < graph.num_nodes; ++i) {
     if (!keep[i]) continue;
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
       const int j = graph.neighbours[p];
-      if (j > i && keep[j]) rows[i].push_back({j, graph.weights[p]});
+      if (j > i && keep[j]) work += kept_degree[j];
     }
   }
-  return graphFromUpperRows(graph.num_nodes, rows);
+  return work;
+}
+
+CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
+  return filteredGraph(graph, [&](int i, std::int64_t p) { return keep[i] && keep[graph.neighbours[p]]; });
 }
 
 std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t count) {
@@ -484,14 +522,7 @@ float otsuEdgeThreshold(const CompatibilityGraph& graph) {
 }
 
 CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold) {
-  UpperRows rows(graph.num_nodes);
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
-      const int j = graph.neighbours[p];
-      if (j > i && graph.weights[p] >= threshold) rows[i].push_back({j, graph.weights[p]});
-    }
-  }
-  return graphFromUpperRows(graph.num_nodes, rows);
+  return filteredGraph(graph, [&](int, std::int64_t p) { return graph.weights[p] >= threshold; });
 }
 
 std::vector<int> coreNumbers(const CompatibilityGraph& graph) {

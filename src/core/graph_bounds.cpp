@@ -17,10 +17,13 @@ BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const
     degree[i] = graph.degree(i);
     nodes += graph.degree(i) > 0;
   }
+  // Each round is judged by the work of the graph it would keep; only the last one is built.
+  std::vector<char> keep;
   do {
     nodes = nodes * 7 / 10;
-    out.graph = keepNodes(graph, strongestNodes(degree, nodes));
-  } while (nodes > 3 && !stopRequested(stop) && secondOrderWork(out.graph) > budget);
+    keep = strongestNodes(degree, nodes);
+  } while (nodes > 3 && !stopRequested(stop) && secondOrderWorkOfNodes(graph, keep) > budget);
+  out.graph = keepNodes(graph, keep);
   out.reduced = true;
   out.kept_nodes = nodes;
   out.removed_edges = graph.numEdges() - out.graph.numEdges();

@@ -401,6 +401,40 @@ TEST(CompatibilityGraph, KeepNodes) {
   EXPECT_EQ(kept.degree(4), 0);
 }
 
+// keepNodes and withoutWeakEdges filter the lists in place; rebuilt from the upper rows of the edges they
+// keep, the graphs must be the same, list for list and weight for weight. So must the work of the kept
+// graph counted without building it.
+TEST(CompatibilityGraph, FiltersMatchTheGraphRebuiltFromTheKeptEdges) {
+  const CompatibilityGraph g = randomWeightedGraph(300, 0.1, 3);
+  std::mt19937 rng(9);
+  std::vector<char> keep(g.num_nodes);
+  for (auto& k : keep) k = rng() % 3 != 0;
+  const float threshold = 0.8f;
+  std::vector<std::vector<UpperEdge>> kept_rows(g.num_nodes), heavy_rows(g.num_nodes);
+  for (int i = 0; i < g.num_nodes; ++i) {
+    for (auto p = g.offsets[i]; p < g.offsets[i + 1]; ++p) {
+      const int j = g.neighbours[p];
+      if (j < i) continue;
+      if (keep[i] && keep[j]) kept_rows[i].push_back({j, g.weights[p]});
+      if (g.weights[p] >= threshold) heavy_rows[i].push_back({j, g.weights[p]});
+    }
+  }
+  const CompatibilityGraph kept = keepNodes(g, keep),
+                           expected_kept = graphFromUpperRows(g.num_nodes, kept_rows);
+  EXPECT_EQ(kept.offsets, expected_kept.offsets);
+  EXPECT_EQ(kept.neighbours, expected_kept.neighbours);
+  EXPECT_EQ(kept.weights, expected_kept.weights);
+  EXPECT_LT(kept.numEdges(), g.numEdges());
+  const CompatibilityGraph heavy = withoutWeakEdges(g, threshold);
+  const CompatibilityGraph expected_heavy = graphFromUpperRows(g.num_nodes, heavy_rows);
+  EXPECT_EQ(heavy.offsets, expected_heavy.offsets);
+  EXPECT_EQ(heavy.neighbours, expected_heavy.neighbours);
+  EXPECT_EQ(heavy.weights, expected_heavy.weights);
+  EXPECT_LT(heavy.numEdges(), g.numEdges());
+  EXPECT_DOUBLE_EQ(secondOrderWorkOfNodes(g, keep), secondOrderWork(expected_kept));
+  EXPECT_DOUBLE_EQ(secondOrderWorkOfNodes(g, std::vector<char>(g.num_nodes, 1)), secondOrderWork(g));
+}
+
 TEST(CompatibilityGraph, StrongestNodes) {
   EXPECT_EQ(strongestNodes({1.0, 3.0, 3.0, 2.0}, 2), (std::vector<char>{0, 1, 1, 0}));
   EXPECT_EQ(strongestNodes({1.0, 3.0, 3.0, 2.0}, 3), (std::vector<char>{0, 1, 1, 1}));

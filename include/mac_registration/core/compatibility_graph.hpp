@@ -65,6 +65,9 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, 
 // Multiply-adds buildSecondOrderGraph would spend on this graph.
 double secondOrderWork(const CompatibilityGraph& graph);
 
+// secondOrderWork(keepNodes(graph, keep)), without building that graph.
+double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep);
+
 // The graph with only the nodes where keep[node] is true; node ids are unchanged, dropped nodes isolated.
 CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep);
 
