@@ -1,6 +1,8 @@
 // The front end and registerClouds on a real 3DMatch pair (redkitchen fragments 4 -> 0, 37 % overlap,
 // shipped downsampled to 3 cm) with its ground truth, and on the ways input can be bad.
 #include <gtest/gtest.h>
+#include <pcl/features/fpfh_omp.h>
+#include <pcl/search/kdtree.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,9 +11,13 @@
 
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_filtering.hpp"
 #include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "mac_registration/features/feature_matching.hpp"
+#include "mac_registration/features/fpfh.hpp"
+#include "mac_registration/features/normals.hpp"
+#include "mac_registration/features/voxel_downsampling.hpp"
 
 namespace mac_registration {
 namespace {
@@ -233,6 +239,45 @@ TEST(RealPair, TheResolutionIsEstimatedOnlyWhenTheGaussianSigmaIsInResolutions) 
   const double resolution = describeCloud(*pair.source, params, "source").resolution;
   EXPECT_GT(resolution, 0.012);
   EXPECT_LT(resolution, 0.03);
+}
+
+// The descriptors of PCL's OpenMP estimator, which searches every neighbourhood twice: what
+// computeFpfh must reproduce bit for bit.
+FpfhCloud pclFpfh(const PointCloud::ConstPtr& points, const NormalCloud::ConstPtr& normals, double radius) {
+  pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> estimator(2);
+  estimator.setInputCloud(points);
+  estimator.setInputNormals(normals);
+  estimator.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimator.setRadiusSearch(radius);
+  FpfhCloud features;
+  estimator.compute(features);
+  return features;
+}
+
+TEST(RealPair, FpfhIsPclsOwnEstimatorsBitForBit) {
+  std::size_t dropped = 0;
+  const PointCloud::Ptr voxels = voxelDownsample(*finitePoints(*realPair().source, dropped), 0.05);
+  const NormalCloud::Ptr all_normals = estimateNormals(voxels, 0.1, 0);
+  // As describeCloud does: only points with a normal take part.
+  auto points = pcl::make_shared<PointCloud>();
+  auto normals = pcl::make_shared<NormalCloud>();
+  for (std::size_t i = 0; i < voxels->size(); ++i) {
+    if (!std::isfinite((*all_normals)[i].normal_x)) continue;
+    points->push_back((*voxels)[i]);
+    normals->push_back((*all_normals)[i]);
+  }
+  ASSERT_GT(points->size(), 1000u);
+  const double radius = 0.25;
+  const FpfhCloud expected = pclFpfh(points, normals, radius);
+  for (const int threads : {1, 2}) {
+    const FpfhCloud::Ptr actual = computeFpfh(points, normals, radius, threads);
+    ASSERT_EQ(actual->size(), expected.size());
+    std::size_t differing = 0;
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      for (int d = 0; d < 33; ++d) differing += (*actual)[i].histogram[d] != expected[i].histogram[d];
+    }
+    EXPECT_EQ(differing, 0u) << threads << " threads";
+  }
 }
 
 // Matches of every described source keypoint, by source index: what the exact and the approximate
