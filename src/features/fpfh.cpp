@@ -2,7 +2,9 @@
 #include <pcl/features/fpfh.h>
 #include <pcl/search/kdtree.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <vector>
 
@@ -42,6 +44,8 @@ FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& points, const NormalCloud
   const Neighbourhoods hood = searchNeighbourhoods(points, radius, threads);
   // PCL's own SPFH and weighting steps, on lists searched once: its OpenMP estimator searches every
   // neighbourhood twice, and that second search is a tenth of the descriptor time.
+  // Both steps only read the estimator's constants, so one instance serves every thread (as in PCL's own
+  // OpenMP estimator).
   Estimator estimator;
   Eigen::MatrixXf f1 = Eigen::MatrixXf::Zero(n, kBinsPerAngle), f2 = f1, f3 = f1;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 64)
