@@ -221,6 +221,8 @@ std::vector<Parameter> makeTable() {
               "keep only mutual nearest neighbours in feature space"),
       real("features.ratio_test", MAC_FIELD(features.ratio_test), "", 0.0, 1.0,
            "Lowe's ratio of nearest to second-nearest distance (open interval), 0 = off", true),
+      real("features.match_epsilon", MAC_FIELD(features.match_epsilon), "", 0.0, kInf,
+           "descriptor search approximation: a match at most (1 + it) x the nearest distance, 0 = exact"),
       real("features.gaussian_sigma_resolutions", MAC_FIELD(features.gaussian_sigma_resolutions),
            "x resolution", 0.0, kInf,
            "d_cmp in cloud resolutions (paper: 10), 0 = use graph.gaussian_sigma in metres", true),

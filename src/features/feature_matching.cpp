@@ -17,11 +17,14 @@ struct Neighbours {
   float second_distance = std::numeric_limits<float>::infinity();  // infinite when there is no second
 };
 
-// For every query descriptor, its nearest (and second nearest) descriptor of `reference`. FLANN's
-// single kd-tree with eps = 0 (PCL's default) is an exact search, so results do not depend on threads.
+// FLANN's single kd-tree. With eps = 0 (PCL's default) the search is exact; with eps > 0 it skips every
+// branch that cannot hold a descriptor closer than (nearest found) / (1 + eps): in 33 dimensions most of
+// the exact search's time goes into confirming what it has already found. Either way the tree and the
+// search are deterministic, so results do not depend on threads.
 std::vector<Neighbours> nearestNeighbours(const FpfhCloud& queries, const FpfhCloud::ConstPtr& reference,
-                                          int k, int threads) {
+                                          int k, double epsilon, int threads) {
   pcl::KdTreeFLANN<pcl::FPFHSignature33> tree;
+  tree.setEpsilon(static_cast<float>(epsilon));
   tree.setInputCloud(reference);
   std::vector<Neighbours> result(queries.size());
   const int count = static_cast<int>(queries.size());
@@ -49,9 +52,10 @@ std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const
   if (source->empty() || target->empty()) return {};
   const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
   const bool ratio_test = params.ratio_test > 0.0;
-  const std::vector<Neighbours> forward = nearestNeighbours(*source, target, ratio_test ? 2 : 1, threads);
+  const std::vector<Neighbours> forward =
+      nearestNeighbours(*source, target, ratio_test ? 2 : 1, params.match_epsilon, threads);
   std::vector<Neighbours> backward;
-  if (params.mutual_filter) backward = nearestNeighbours(*target, source, 1, threads);
+  if (params.mutual_filter) backward = nearestNeighbours(*target, source, 1, params.match_epsilon, threads);
 
   std::vector<FeatureMatch> matches;
   matches.reserve(source->size());

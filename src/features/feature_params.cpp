@@ -29,6 +29,8 @@ std::vector<std::string> validateFeatureParams(const FeatureParams& p) {
   check(p.max_correspondences >= 3, "max_correspondences", double(p.max_correspondences), ">= 3");
   check(p.ratio_test == 0.0 || (p.ratio_test > 0.0 && p.ratio_test < 1.0), "ratio_test", p.ratio_test,
         "0 (off) or in (0, 1)");
+  check(std::isfinite(p.match_epsilon) && p.match_epsilon >= 0.0, "match_epsilon", p.match_epsilon,
+        ">= 0 (0 = exact)");
   check(p.num_threads >= 0, "num_threads", p.num_threads, ">= 0 (0 = OpenMP default)");
   check(std::isfinite(p.gaussian_sigma_resolutions) && p.gaussian_sigma_resolutions >= 0.0,
         "gaussian_sigma_resolutions", p.gaussian_sigma_resolutions, "0 (off) or > 0 [resolutions]");

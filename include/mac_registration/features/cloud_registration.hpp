@@ -21,7 +21,9 @@ struct FrontEndStats {
   std::size_t source_no_feature = 0, target_no_feature = 0;
   // Matches removed by the mutual check and by the ratio test, and beyond max_correspondences.
   std::size_t rejected_mutual = 0, rejected_ratio = 0, truncated = 0;
-  double resolution = 0.0;  // [m] mean nearest-neighbour distance of the given clouds, averaged over both
+  // [m] mean nearest-neighbour distance of the given clouds, averaged over both; 0 when not estimated
+  // (see resolutionNeeded).
+  double resolution = 0.0;
   double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0, matching_ms = 0.0;
   double totalMs() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
 };
@@ -47,9 +49,12 @@ struct DescribedCloud {
   std::size_t dropped = 0;     // NaN/Inf points removed
   std::size_t voxels = 0;      // keypoints after the voxel grid
   std::size_t no_feature = 0;  // of them, without a normal or a usable descriptor
-  double resolution = 0.0;     // [m] mean nearest-neighbour distance of the given cloud
+  double resolution = 0.0;     // [m] mean nearest-neighbour distance of the given cloud, 0 = not estimated
   double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0;
 };
+
+// Whether describeCloud estimates the resolution: only features.gaussian_sigma_resolutions > 0 uses it.
+bool resolutionNeeded(const FeatureParams& params);
 
 // Throws std::invalid_argument for invalid params, a cloud with fewer than 3 finite points, or one whose
 // coordinates are beyond kMaxAbsCoordinate or so large that float32 spaces them more than a quarter voxel

@@ -22,7 +22,8 @@ struct MatchingStats {
   std::size_t truncated = 0;        // beyond max_correspondences
 };
 
-// Each source descriptor's nearest target descriptor (exact kd-tree search),
+// Each source descriptor's nearest target descriptor (kd-tree search, exact when params.match_epsilon = 0,
+// else within (1 + match_epsilon) of the nearest distance),
 // optionally kept only when mutual (params.mutual_filter) and distinctive (params.ratio_test); then the
 // params.max_correspondences closest, ascending by distance (ties by source index: deterministic).
 std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const FpfhCloud::ConstPtr& target,
