@@ -91,8 +91,13 @@ void printFrontEnd(std::ostream& out, const mac_registration::FrontEndStats& s, 
   };
   cloud("source", s.source_points, s.source_dropped, s.source_keypoints, s.source_no_feature);
   cloud("target", s.target_points, s.target_dropped, s.target_keypoints, s.target_no_feature);
-  out << std::fixed << std::setprecision(4) << "front end: resolution " << s.resolution << " m, "
-      << correspondences << " correspondences (" << s.rejected_mutual << " rejected by the mutual check, "
+  out << std::fixed << std::setprecision(4) << "front end: ";
+  // The resolution is estimated only when a parameter is given in resolutions.
+  if (s.resolution > 0.0)
+    out << "resolution " << s.resolution << " m, ";
+  else
+    out << "resolution not estimated, ";
+  out << correspondences << " correspondences (" << s.rejected_mutual << " rejected by the mutual check, "
       << s.rejected_ratio << " by the ratio test, " << s.truncated << " beyond max_correspondences)\n"
       << std::setprecision(2) << "front-end time [ms]: resolution " << s.resolution_ms << ", downsample "
       << s.downsample_ms << ", normals " << s.normals_ms << ", fpfh " << s.features_ms << ", matching "
