@@ -11,24 +11,14 @@
 #include <vector>
 
 #include "mac_registration/ros/conversions.hpp"
+#include "xyz_cloud.hpp"
 
 namespace mac_registration {
 namespace {
 
 const std::vector<Eigen::Vector3f> kPoints = {{1.0f, 2.0f, 3.0f}, {-4.0f, 5.5f, 6.0f}, {7.0f, -8.0f, 9.25f}};
 
-sensor_msgs::PointCloud2 xyzCloud(const std::vector<Eigen::Vector3f>& points) {
-  sensor_msgs::PointCloud2 msg;
-  sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2FieldsByString(1, "xyz");
-  modifier.resize(points.size());
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
-  for (const auto& p : points) {
-    *x = p.x(), *y = p.y(), *z = p.z();
-    ++x, ++y, ++z;
-  }
-  return msg;
-}
+using mac_registration::test::xyzCloud;
 
 sensor_msgs::PointField* field(sensor_msgs::PointCloud2& msg, const std::string& name) {
   for (auto& f : msg.fields) {

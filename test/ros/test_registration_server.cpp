@@ -19,6 +19,7 @@
 #include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "mac_registration/ros/conversions.hpp"
+#include "xyz_cloud.hpp"
 
 namespace mac_registration {
 namespace {
@@ -37,19 +38,7 @@ mac_registration::Correspondences redkitchenCorrespondences(const std::string& t
                               header, source_frame);
 }
 
-sensor_msgs::PointCloud2 xyzCloud(const std::vector<Eigen::Vector3f>& points, const std::string& frame) {
-  sensor_msgs::PointCloud2 msg;
-  msg.header.frame_id = frame;
-  sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2FieldsByString(1, "xyz");
-  modifier.resize(points.size());
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
-  for (const auto& p : points) {
-    *x = p.x(), *y = p.y(), *z = p.z();
-    ++x, ++y, ++z;
-  }
-  return msg;
-}
+using mac_registration::test::xyzCloud;
 
 // A real 3DMatch pair (redkitchen fragments 4 -> 0, 37.5 % overlap, 3 cm voxels) as PointCloud2 messages.
 sensor_msgs::PointCloud2 redkitchenCloud(const std::string& file, const std::string& frame) {
