@@ -13,6 +13,7 @@
 #include "mac_registration/core/evaluation.hpp"
 #include "mac_registration/core/hypotheses.hpp"
 #include "mac_registration/core/refinement.hpp"
+#include "mac_registration/core/verification.hpp"
 
 namespace mac_registration {
 namespace {
@@ -126,6 +127,7 @@ struct BestHypothesis {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
   HypothesisScore score;
   bool found = false;
+  std::vector<ScoredHypothesis> scored;  // every non-degenerate hypothesis, for the verification
 };
 
 // Stops early, with a partial result the caller drops, when `stop` is raised.
@@ -156,8 +158,11 @@ BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const C
     ++result.counters.hypotheses;
     // Strictly greater: the earliest hypothesis wins ties, whatever the thread count.
     if (!best.found || scores[h].score > best.score.score) {
-      best = {*transforms[h], scores[h], true};
+      best = {*transforms[h], scores[h], true, {}};
     }
+  }
+  for (int h = 0; h < count; ++h) {
+    if (transforms[h]) best.scored.push_back({*transforms[h], scores[h]});
   }
   result.times.evaluation_ms = millisecondsSince(start);
   return best;
@@ -288,6 +293,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
   std::ostringstream text;
   text << result.counters.inliers << " inliers of " << c.size() << " correspondences, score " << result.score;
   result.message = text.str();
+  verifyRegistration(c, best.scored, evaluator, params, stop, result);
 }
 
 }  // namespace
@@ -314,6 +320,8 @@ const char* toString(RegistrationStatus status) {
       return "internal error";
     case RegistrationStatus::kCancelled:
       return "cancelled";
+    case RegistrationStatus::kUnverified:
+      return "unverified";
   }
   return "unknown";
 }
@@ -330,7 +338,8 @@ MacResult registerCorrespondences(const CorrespondenceSet& correspondences, cons
   } catch (const std::exception& e) {
     fail(result, RegistrationStatus::kInternalError, e.what());
   }
-  if (!result.success && result.status != RegistrationStatus::kTooFewInliers) {
+  if (!result.success && result.status != RegistrationStatus::kTooFewInliers &&
+      result.status != RegistrationStatus::kUnverified) {
     result.T_target_source = Eigen::Isometry3d::Identity();
   }
   result.times.total_ms = millisecondsSince(start);
