@@ -10,6 +10,7 @@
 #include <string>
 
 #include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/features/cloud_verification.hpp"
 #include "mac_registration/features/front_end_stages.hpp"
 
 namespace mac_registration {
@@ -77,6 +78,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
                                 "); at least 3 are needed");
   }
   throwIfOutOfRange(*finite, params.voxel_size, role);
+  out.viewpoint = finite->sensor_origin_.head<3>();
   auto start = Clock::now();
   out.resolution = meanNearestNeighbourDistance(finite, params.resolution_samples);
   out.resolution_ms = millisecondsSince(start);
@@ -164,6 +166,10 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   }
   out.source_keypoints = s.keypoints;
   out.target_keypoints = t.keypoints;
+  out.source_keypoint_normals = s.normals;
+  out.target_keypoint_normals = t.normals;
+  out.source_viewpoint = s.viewpoint;
+  out.target_viewpoint = t.viewpoint;
   stats.matching_ms = millisecondsSince(start);
   return out;
 }
@@ -210,9 +216,9 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
     return fail(RegistrationStatus::kInternalError, std::string("front end failed: ") + e.what());
   }
   if (stopRequested(stop)) return fail(RegistrationStatus::kCancelled, "cancelled after the front end");
-  registration = registerCorrespondences(
-      result.features.correspondences,
-      withResolutionUnits(mac_params, feature_params, result.features.stats.resolution), stop);
+  const MacParams params = withResolutionUnits(mac_params, feature_params, result.features.stats.resolution);
+  registration = registerCorrespondences(result.features.correspondences, params, stop);
+  verifyAlignment(result.features, params, registration);
   return result;
 }
 
