@@ -212,7 +212,7 @@ void decideVerification(const VerificationParams& params, MacResult& result) {
   std::stable_sort(terms.begin(), terms.end(),
                    [](const EvidenceTerm& a, const EvidenceTerm& b) { return a.log_odds < b.log_odds; });
   std::ostringstream text;
-  text << "unverified, confidence " << std::fixed << std::setprecision(2) << result.confidence << " below "
+  text << "confidence " << std::fixed << std::setprecision(2) << result.confidence << " below "
        << params.min_confidence << " (verification.min_confidence)";
   const char* separator = ": ";
   for (const EvidenceTerm& t : terms) {
