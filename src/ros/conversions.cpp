@@ -214,6 +214,33 @@ void fillResultMsg(const MacResult& r, mac_registration::RegistrationResult& msg
   msg.time_evaluation_ms = r.times.evaluation_ms;
   msg.time_refinement_ms = r.times.refinement_ms;
   msg.time_total_ms = r.times.total_ms + msg.time_front_end_ms;
+  fillVerification(r, msg);
+}
+
+void fillVerification(const MacResult& r, mac_registration::RegistrationResult& msg) {
+  msg.confidence = r.confidence;
+  msg.has_estimate = r.success || r.status == RegistrationStatus::kUnverified ||
+                     r.status == RegistrationStatus::kTooFewInliers;
+  msg.estimate = toTransformMsg(msg.has_estimate ? r.T_target_source : Eigen::Isometry3d::Identity());
+  const VerificationSignals& s = r.verification;
+  msg.rival_ratio = s.rival_ratio;
+  msg.rival_rotation_deg = s.rival_rotation_deg;
+  msg.rival_displacement = s.rival_displacement;
+  msg.aligned_overlap = s.aligned_overlap;
+  msg.seen_on_surface = s.seen_on_surface;
+  msg.free_space_violation = s.free_space_violation;
+  msg.alternatives.clear();
+  for (const PoseAlternative& a : r.alternatives) {
+    mac_registration::CompetingPose alternative;
+    alternative.transform = toTransformMsg(a.T_target_source);
+    alternative.score = a.score;
+    alternative.inliers = a.inliers;
+    alternative.score_ratio = a.score_ratio;
+    alternative.rotation_deg = a.rotation_deg;
+    alternative.displacement = a.displacement;
+    msg.alternatives.push_back(alternative);
+  }
+  msg.time_verification_ms = r.times.verification_ms;
 }
 
 void fillFrontEndStats(const FrontEndStats& s, mac_registration::RegistrationResult& msg) {
