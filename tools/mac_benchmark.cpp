@@ -11,7 +11,8 @@
 //                        [dataset options]   (the labelled evaluation of the verification: pairs with
 //                        ground truth or "none"; --derived adds each pair's correspondences without their
 //                        near-inliers and with shuffled targets; --synthetic the synthetic grid of
-//                        --sizes/--ratios/--repeats and its 0 % and unrelated sets)
+//                        --sizes/--ratios/--repeats and its 0 % and unrelated sets;
+//                        --no-cloud-verification judges on the correspondences alone)
 // dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline ransac|none]
 //                  [--ransac-iterations N] [--subset NAME] [--limit N]
 // The synthetic and correspondences modes run each case in a child process so that its peak resident
@@ -260,6 +261,8 @@ Options parseOptions(int argc, char** argv) {
       o.derived = true;
     else if (arg == "--synthetic")
       o.synthetic = true;
+    else if (arg == "--no-cloud-verification")
+      o.dataset.cloud_verification = false;
     else if (arg == "--thresholds") {
       o.thresholds.clear();
       for (const auto& s : split(value())) o.thresholds.push_back(std::stod(s));

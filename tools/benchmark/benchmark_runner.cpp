@@ -72,9 +72,11 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
   prepared.correspondences = features->correspondences;
   // The same parameters registerClouds() would use.
   prepared.mac = withResolutionUnits(settings.mac, settings.features, s.resolution);
-  prepared.verify_with_clouds = [features, mac = prepared.mac](MacResult& result) {
-    verifyAlignment(*features, mac, result);
-  };
+  if (settings.cloud_verification) {
+    prepared.verify_with_clouds = [features, mac = prepared.mac](MacResult& result) {
+      verifyAlignment(*features, mac, result);
+    };
+  }
   return prepared;
 #else
   throw std::runtime_error("this build has no PCL front end: clouds cannot be registered");

@@ -18,6 +18,9 @@ struct BenchmarkSettings {
   // The RANSAC baseline on the same correspondences (only in builds with the PCL front end).
   bool baseline = true;
   int ransac_max_iterations = 50000;
+  // The clouds' stage of the verification after the core (as registerClouds); false judges the
+  // correspondences alone, as a caller of registerCorrespondences gets them.
+  bool cloud_verification = true;
 };
 
 // Whether this build has the PCL front end (clouds in) and the RANSAC baseline.
