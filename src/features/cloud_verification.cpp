@@ -77,14 +77,18 @@ constexpr std::size_t kFewestSeen = 10;
 // One cloud as its sensor saw it.
 struct AlignmentJudge::View {
   PointCloud::ConstPtr points;
+  Eigen::Vector3f viewpoint;
+  float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
   std::unique_ptr<RangeImage> image;
 
-  View(const PointCloud::ConstPtr& cloud, const Eigen::Vector3f& viewpoint, double tau) : points(cloud) {
+  View(const PointCloud::ConstPtr& cloud, const Eigen::Vector3f& from, double tau)
+      : points(cloud), viewpoint(from) {
     tree.setInputCloud(cloud);
     std::vector<float> ranges;
     ranges.reserve(cloud->size());
     for (const auto& p : *cloud) ranges.push_back((p.getVector3fMap() - viewpoint).norm());
+    max_range = *std::max_element(ranges.begin(), ranges.end());
     std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
     // Cells about tau wide at the median range: a few keypoints each on a surface facing the sensor.
     const double median_range = std::max(1e-3f, ranges[ranges.size() / 2]);
@@ -141,7 +145,13 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
   source_in_target.reserve(source_->points->size());
   target_in_source.reserve(target_->points->size());
   for (const auto& p : *source_->points) source_in_target.push_back(forward * p.getVector3fMap());
-  for (const auto& p : *target_->points) target_in_source.push_back(inverse * p.getVector3fMap());
+  // Only what lies within the source sensor's reach can be judged by it: a map as the target would
+  // otherwise cost a query per map point and dilute the shares with places the scan never saw.
+  const float reach = source_->max_range + float(tau_);
+  for (const auto& p : *target_->points) {
+    const Eigen::Vector3f q = inverse * p.getVector3fMap();
+    if ((q - source_->viewpoint).norm() <= reach) target_in_source.push_back(q);
+  }
   const View::Agreement seen_by_target = target_->compare(source_in_target, tau_);
   const View::Agreement seen_by_source = source_->compare(target_in_source, tau_);
   signals.aligned_overlap = share(seen_by_target.on_surface, seen_by_target.points);

@@ -100,6 +100,20 @@ TEST(AlignmentSignals, ARoomPlacedBehindTheWallsSharesNothing) {
   EXPECT_LT(confidenceOf(verificationEvidence(s)), 0.1);
 }
 
+TEST(AlignmentSignals, AMapBeyondTheScansReachDoesNotDiluteIt) {
+  // The target as a map: the same room and, 50 m away, another one the source's sensor never reached.
+  const FeatureCorrespondences room = twoScansOfARoom();
+  FeatureCorrespondences map = twoScansOfARoom();
+  addRoom(Eigen::Vector3f(50.0f, 0.0f, 0.0f), 0.05f, 0.0f, *map.target_keypoints,
+          *map.target_keypoint_normals);
+  for (const Eigen::Isometry3d& pose : {Eigen::Isometry3d::Identity(), shifted(1.0, 0.0, 0.0)}) {
+    const VerificationSignals alone = AlignmentJudge(room, kTau).judge(pose);
+    const VerificationSignals in_map = AlignmentJudge(map, kTau).judge(pose);
+    EXPECT_NEAR(in_map.free_space_violation, alone.free_space_violation, 1e-9);
+    EXPECT_NEAR(in_map.aligned_overlap, alone.aligned_overlap, 1e-9);
+  }
+}
+
 TEST(AlignmentSignals, NoKeypointsNoSignals) {
   FeatureCorrespondences f;
   const VerificationSignals s = AlignmentJudge(f, kTau).judge(Eigen::Isometry3d::Identity());
