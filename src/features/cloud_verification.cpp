@@ -1,5 +1,6 @@
 #include "mac_registration/features/cloud_verification.hpp"
 
+#include <omp.h>
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <algorithm>
@@ -99,12 +100,12 @@ struct AlignmentJudge::View {
   struct Agreement {
     std::size_t points = 0, seen = 0, on_surface = 0, seen_on_surface = 0, in_free_space = 0;
   };
-  Agreement compare(const std::vector<Eigen::Vector3f>& placed, double tau) const {
+  Agreement compare(const std::vector<Eigen::Vector3f>& placed, double tau, int threads) const {
     Agreement out;
     out.points = placed.size();
     std::size_t seen = 0, on = 0, seen_on = 0, front = 0;
     const int n = int(placed.size());
-#pragma omp parallel for schedule(static) reduction(+ : seen, on, seen_on, front)
+#pragma omp parallel for schedule(static) reduction(+ : seen, on, seen_on, front) num_threads(threads)
     for (int i = 0; i < n; ++i) {
       pcl::PointXYZ query;
       query.getVector3fMap() = placed[i];
@@ -126,7 +127,8 @@ struct AlignmentJudge::View {
   }
 };
 
-AlignmentJudge::AlignmentJudge(const FeatureCorrespondences& f, double tau) : tau_(tau) {
+AlignmentJudge::AlignmentJudge(const FeatureCorrespondences& f, double tau, int num_threads)
+    : tau_(tau), threads_(num_threads > 0 ? num_threads : omp_get_max_threads()) {
   if (!f.source_keypoints || !f.target_keypoints || f.source_keypoints->size() < 3 ||
       f.target_keypoints->size() < 3)
     return;
@@ -152,8 +154,8 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
     const Eigen::Vector3f q = inverse * p.getVector3fMap();
     if ((q - source_->viewpoint).norm() <= reach) target_in_source.push_back(q);
   }
-  const View::Agreement seen_by_target = target_->compare(source_in_target, tau_);
-  const View::Agreement seen_by_source = source_->compare(target_in_source, tau_);
+  const View::Agreement seen_by_target = target_->compare(source_in_target, tau_, threads_);
+  const View::Agreement seen_by_source = source_->compare(target_in_source, tau_, threads_);
   signals.aligned_overlap = share(seen_by_target.on_surface, seen_by_target.points);
   signals.seen_on_surface = seen_by_target.seen >= kFewestSeen
                                 ? share(seen_by_target.seen_on_surface, seen_by_target.seen)
@@ -167,7 +169,7 @@ void verifyAlignment(const FeatureCorrespondences& features, const MacParams& pa
   if (!params.verification.enabled) return;
   if (!result.success && result.status != RegistrationStatus::kUnverified) return;
   const auto start = std::chrono::steady_clock::now();
-  const AlignmentJudge judge(features, params.evaluation.inlier_threshold);
+  const AlignmentJudge judge(features, params.evaluation.inlier_threshold, params.num_threads);
   const VerificationSignals clouds = judge.judge(result.T_target_source);
   result.verification.aligned_overlap = clouds.aligned_overlap;
   result.verification.seen_on_surface = clouds.seen_on_surface;

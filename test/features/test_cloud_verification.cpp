@@ -114,6 +114,16 @@ TEST(AlignmentSignals, AMapBeyondTheScansReachDoesNotDiluteIt) {
   }
 }
 
+TEST(AlignmentSignals, TheSignalsDoNotDependOnTheThreadCount) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  const VerificationSignals one = AlignmentJudge(f, kTau, 1).judge(shifted(0.7, 0.2, 0.0));
+  const VerificationSignals two = AlignmentJudge(f, kTau, 2).judge(shifted(0.7, 0.2, 0.0));
+  EXPECT_EQ(one.aligned_overlap, two.aligned_overlap);  // counts: exactly equal
+  EXPECT_EQ(one.seen_on_surface, two.seen_on_surface);
+  EXPECT_EQ(one.free_space_violation, two.free_space_violation);
+  EXPECT_GT(one.free_space_violation, 0.0);
+}
+
 TEST(AlignmentSignals, NoKeypointsNoSignals) {
   FeatureCorrespondences f;
   const VerificationSignals s = AlignmentJudge(f, kTau).judge(Eigen::Isometry3d::Identity());

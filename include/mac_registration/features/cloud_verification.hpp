@@ -19,8 +19,8 @@ namespace mac_registration {
 class AlignmentJudge {
  public:
   // `tau` [m]: the distance within which an aligned keypoint meets the other cloud's surface, and the
-  // margin of the free-space test.
-  AlignmentJudge(const FeatureCorrespondences& features, double tau);
+  // margin of the free-space test. `num_threads` 0 = OpenMP's default; the signals do not depend on it.
+  AlignmentJudge(const FeatureCorrespondences& features, double tau, int num_threads = 0);
   ~AlignmentJudge();
 
   // The cloud signals of one pose (aligned_overlap, seen_on_surface, free_space_violation); all NaN when
@@ -32,6 +32,7 @@ class AlignmentJudge {
   struct View;
   std::unique_ptr<View> source_, target_;
   double tau_;
+  int threads_;
 };
 
 // The cloud stage of the verification: measures the cloud signals of a result that has a transform,
