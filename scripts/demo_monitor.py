@@ -76,9 +76,9 @@ class Monitor:
                 lines.append("  error against %s: rotation %.2f deg, translation %.1f cm -> %s (RE <= %g deg, "
                              "TE <= %g cm)" % (TRUTH_KIND[pair], re, te * 100, "within the criterion" if ok
                                                else "OUTSIDE the criterion", max_re, max_te * 100))
-            lines.append("  %d inliers of %d correspondences; time %.0f ms (front end %.0f ms, MAC %.0f ms)" % (
-                msg.inliers, msg.correspondences, msg.time_total_ms, msg.time_front_end_ms,
-                msg.time_total_ms - msg.time_front_end_ms))
+            lines.append("  %d inliers of %d correspondences, confidence %.2f; time %.0f ms (front end %.0f ms, "
+                         "MAC %.0f ms)" % (msg.inliers, msg.correspondences, msg.confidence, msg.time_total_ms,
+                                           msg.time_front_end_ms, msg.time_total_ms - msg.time_front_end_ms))
         else:
             lines.append("  " + msg.message)
         rospy.loginfo("\n".join(lines))

@@ -7,6 +7,12 @@
 //   mac_benchmark pairs TABLE.tsv [dataset options]          (e.g. 3dmatch/pairs_available.tsv)
 //   mac_benchmark gtlog FRAGMENT_DIR GT_LOG [--subset-name NAME] [dataset options]   (3DMatch layout)
 //   mac_benchmark sets FOLDER|LIST [dataset options]          (correspondence sets with ground truth)
+//   mac_benchmark verify [TABLE.tsv|FOLDER|LIST]... [--derived] [--synthetic] [--thresholds 0,0.1,...]
+//                        [dataset options]   (the labelled evaluation of the verification: pairs with
+//                        ground truth or "none"; --derived adds each pair's correspondences without their
+//                        near-inliers and with shuffled targets; --synthetic the synthetic grid of
+//                        --sizes/--ratios/--repeats and its 0 % and unrelated sets;
+//                        --no-cloud-verification judges on the correspondences alone)
 // dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline ransac|none]
 //                  [--ransac-iterations N] [--subset NAME] [--limit N]
 // The synthetic and correspondences modes run each case in a child process so that its peak resident
@@ -32,6 +38,7 @@
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "synthetic.hpp"
+#include "verification_eval.hpp"
 
 namespace mac_registration {
 namespace {
@@ -49,6 +56,9 @@ struct Options {
   BenchmarkSettings dataset;  // its mac and features are filled from `config`
   std::string subset_filter, subset_name;
   std::size_t limit = 0;
+  // verify mode
+  bool derived = false, synthetic = false;
+  std::vector<double> thresholds{0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9};
 };
 
 // The benchmark: section of a preset and --set benchmark.* keys: the success criterion of the recall.
@@ -248,7 +258,16 @@ Options parseOptions(int argc, char** argv) {
       o.subset_name = value();
     else if (arg == "--limit")
       o.limit = std::stoul(value());
-    else if (!arg.empty() && arg[0] == '-')
+    else if (arg == "--derived")
+      o.derived = true;
+    else if (arg == "--synthetic")
+      o.synthetic = true;
+    else if (arg == "--no-cloud-verification")
+      o.dataset.cloud_verification = false;
+    else if (arg == "--thresholds") {
+      o.thresholds.clear();
+      for (const auto& s : split(value())) o.thresholds.push_back(std::stod(s));
+    } else if (!arg.empty() && arg[0] == '-')
       throw std::invalid_argument("unknown option " + arg);
     else
       o.positional.push_back(arg);
@@ -452,6 +471,68 @@ int runSets(const Options& o) {
   return runDataset(o, readCorrespondenceSets(o.positional[0]), o.positional[0]);
 }
 
+// Prints one progress line per case.
+void printCase(std::ostream& out, const VerificationCase& c) {
+  out << c.name << " [" << c.kind << (c.answerable ? "" : ", no answer") << "] ";
+  if (!c.error.empty()) {
+    out << "ERROR: " << c.error << std::endl;
+    return;
+  }
+  const MacResult& r = c.result;
+  out << std::fixed << std::setprecision(2) << (r.success ? "success" : toString(r.status)) << " conf "
+      << r.confidence;
+  if (c.registered && c.has_truth)
+    out << std::setprecision(1) << " RE " << c.rotation_error_deg << " TE " << 100 * c.translation_error
+        << "cm " << (c.correct ? "right" : "WRONG");
+  out << std::setprecision(2) << " | " << r.message << " | verify " << r.times.verification_ms << "ms of "
+      << r.times.total_ms << std::endl;
+  out.unsetf(std::ios::fixed);
+}
+
+int runVerify(Options o, bool params_given) {
+  std::vector<BenchmarkPair> pairs;
+  for (const std::string& source : o.positional) {
+    const bool table = std::filesystem::path(source).extension() == ".tsv";
+    for (const BenchmarkPair& p : table ? readPairsTable(source) : readCorrespondenceSets(source))
+      pairs.push_back(p);
+  }
+  if (pairs.empty() && !o.synthetic) throw std::invalid_argument("verify needs tables or --synthetic");
+  std::ofstream csv;
+  if (!o.csv.empty()) csv = openCsv(o.csv);
+  o.dataset.mac = o.config.mac;
+  o.dataset.features = o.config.features;
+  std::vector<VerificationCase> cases;
+  for (const BenchmarkPair& pair : pairs) {
+    for (VerificationCase& c : runVerificationPair(pair, o.dataset, o.derived)) {
+      printCase(std::cerr, c);
+      cases.push_back(std::move(c));
+    }
+  }
+  if (o.synthetic) {
+    MacParams mac = o.config.mac;
+    if (!params_given) {
+      mac.graph.gaussian_sigma = 50.0 * o.noise;
+      mac.evaluation.inlier_threshold = 10.0 * o.noise;
+    }
+    for (VerificationCase& c :
+         runSyntheticVerification(readAsciiPlyMesh(o.mesh), o.sizes, o.ratios, o.noise, o.repeats, mac)) {
+      printCase(std::cerr, c);
+      cases.push_back(std::move(c));
+    }
+  }
+  std::cout << "\n"
+            << cases.size() << " cases; verification.min_confidence "
+            << o.config.mac.verification.min_confidence << "\n";
+  printOperatingPoints(std::cout, cases, o.thresholds, o.config.mac.verification.min_confidence);
+  std::cout << "\nat min_confidence " << o.config.mac.verification.min_confidence << ":\n";
+  printCasesByKind(std::cout, cases, o.config.mac.verification.min_confidence);
+  if (csv.is_open()) {
+    writeVerificationCsv(csv, cases);
+    std::cout << "per-case results: " << o.csv << "\n";
+  }
+  return 0;
+}
+
 }  // namespace
 }  // namespace mac_registration
 
@@ -477,6 +558,7 @@ int main(int argc, char** argv) {
     if (mode == "pairs") return runPairs(options);
     if (mode == "gtlog") return runGtLog(options);
     if (mode == "sets") return runSets(options);
+    if (mode == "verify") return runVerify(options, params_given);
     std::cerr << "mac_benchmark: unknown mode '" << mode << "'\n" << usage;
   } catch (const std::exception& e) {
     std::cerr << "mac_benchmark: " << e.what() << "\n";

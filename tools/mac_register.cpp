@@ -29,8 +29,8 @@ constexpr const char* kUsage =
     "    or --set features.voxel_size=0.03\n"
     "  --out: also write the 4x4 T_target_source there (4 lines of 4 numbers)\n"
     "  --save-correspondences: write the front end's matches in the --correspondences format\n"
-    "exit status: 0 registered, 1 registration failed (reason printed), 2 bad arguments, unreadable or\n"
-    "unusable input\n";
+    "exit status: 0 registered and verified, 1 registration failed or not verified (reason printed), 2 bad\n"
+    "arguments, unreadable or unusable input\n";
 
 struct Options {
   std::vector<std::string> clouds;
@@ -162,11 +162,17 @@ int main(int argc, char** argv) {
     std::cerr << "mac_register: " << result.message << "\n";
     return 2;
   }
-  std::cout << "T_target_source:\n" << formatTransform(result.T_target_source);
+  const bool unverified = result.status == RegistrationStatus::kUnverified;
+  std::cout << (unverified ? "T_target_source (unverified: the best estimate, not confirmed):\n"
+                           : "T_target_source:\n")
+            << formatTransform(result.T_target_source);
   printResultSummary(std::cout, result);
   if (!result.success) {
     std::cerr << "mac_register: registration failed: " << toString(result.status) << ": " << result.message
               << "\n";
+    if (unverified)
+      std::cerr << "mac_register: the transform above may be wrong; the alternatives listed are its distinct "
+                   "rivals (README: what success means)\n";
     return 1;
   }
   if (!options.out.empty()) {

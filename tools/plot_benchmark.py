@@ -21,7 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 FRONT_END = ["resolution_ms", "downsample_ms", "normals_ms", "fpfh_ms", "matching_ms"]
 METHOD_STAGES = ["graph_ms", "second_order_ms", "clique_search_ms", "selection_ms", "hypotheses_ms",
-                 "evaluation_ms", "refinement_ms"]
+                 "evaluation_ms", "refinement_ms", "verification_ms"]
 
 
 def read_rows(path):
@@ -90,7 +90,8 @@ def plot_errors(ax, rows, methods):
 
 
 def median_of(rows, column):
-    values = [as_float(r[column]) for r in rows]
+    values = [as_float(r.get(column, "nan")) for r in rows]  # older CSVs lack verification_ms
+    values = [v for v in values if not math.isnan(v)]
     return statistics.median(values) if values else 0.0
 
 

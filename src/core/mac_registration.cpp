@@ -15,6 +15,7 @@
 #include "mac_registration/core/graph_bounds.hpp"
 #include "mac_registration/core/hypotheses.hpp"
 #include "mac_registration/core/refinement.hpp"
+#include "mac_registration/core/verification.hpp"
 
 namespace mac_registration {
 namespace {
@@ -104,6 +105,7 @@ struct BestHypothesis {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
   HypothesisScore score;
   bool found = false;
+  std::vector<ScoredHypothesis> scored;  // every non-degenerate hypothesis, for the verification
 };
 
 // Stops early, with a partial result the caller drops, when `stop` is raised.
@@ -135,7 +137,10 @@ BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const C
   }
   BestHypothesis best;
   const int chosen = bestHypothesis(scores);  // the earliest among equals, whatever the thread count
-  if (chosen >= 0 && transforms[chosen]) best = {*transforms[chosen], scores[chosen], true};
+  if (chosen >= 0 && transforms[chosen]) best = {*transforms[chosen], scores[chosen], true, {}};
+  for (int h = 0; h < count; ++h) {
+    if (transforms[h]) best.scored.push_back({*transforms[h], scores[h]});
+  }
   result.times.evaluation_ms = millisecondsSince(start);
   return best;
 }
@@ -295,6 +300,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
   refineAndAccept(best, sane, evaluator, params, stop, result);
+  verifyRegistration(c, best.scored, evaluator, params, stop, result);  // judges successes only
 }
 
 }  // namespace
@@ -311,7 +317,8 @@ MacResult registerCorrespondences(const CorrespondenceSet& correspondences, cons
   } catch (const std::exception& e) {
     fail(result, RegistrationStatus::kInternalError, e.what());
   }
-  if (!result.success && result.status != RegistrationStatus::kTooFewInliers) {
+  if (!result.success && result.status != RegistrationStatus::kTooFewInliers &&
+      result.status != RegistrationStatus::kUnverified) {
     result.T_target_source = Eigen::Isometry3d::Identity();
   }
   result.times.total_ms = millisecondsSince(start);

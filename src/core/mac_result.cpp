@@ -24,6 +24,8 @@ const char* toString(RegistrationStatus status) {
       return "internal error";
     case RegistrationStatus::kCancelled:
       return "cancelled";
+    case RegistrationStatus::kUnverified:
+      return "unverified";
   }
   return "unknown";
 }

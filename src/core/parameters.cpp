@@ -63,6 +63,12 @@ std::vector<std::string> validateParams(const MacParams& p) {
 
   check.require(p.refinement.max_iterations >= 1 && p.refinement.max_iterations <= 100,
                 "refinement.max_iterations", p.refinement.max_iterations, "in [1, 100]");
+  check.require(p.verification.min_confidence >= 0.0 && p.verification.min_confidence <= 1.0,
+                "verification.min_confidence", p.verification.min_confidence, "in [0, 1]");
+  check.positive("verification.distinct_pose_factor [x evaluation.inlier_threshold]",
+                 p.verification.distinct_pose_factor);
+  check.require(p.verification.max_alternatives <= 10, "verification.max_alternatives",
+                double(p.verification.max_alternatives), "in [0, 10]");
   check.require(p.num_threads >= 0, "num_threads", p.num_threads, ">= 0 (0 = OpenMP's default)");
   return check.problems();
 }

@@ -11,6 +11,7 @@
 
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/features/cloud_filtering.hpp"
+#include "mac_registration/features/cloud_verification.hpp"
 #include "mac_registration/features/feature_matching.hpp"
 #include "mac_registration/features/fpfh.hpp"
 #include "mac_registration/features/normals.hpp"
@@ -84,6 +85,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
                                 "); at least 3 are needed");
   }
   throwIfOutOfRange(*finite, params.voxel_size, role);
+  out.viewpoint = finite->sensor_origin_.head<3>();
   auto start = Clock::now();
   // The kd-tree over every raw point costs more than its queries (a quarter of the front end on a
   // 3DMatch fragment), and only the resolution-unit d_cmp needs the result.
@@ -174,6 +176,10 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   }
   out.source_keypoints = s.keypoints;
   out.target_keypoints = t.keypoints;
+  out.source_keypoint_normals = s.normals;
+  out.target_keypoint_normals = t.normals;
+  out.source_viewpoint = s.viewpoint;
+  out.target_viewpoint = t.viewpoint;
   stats.matching_ms = millisecondsSince(start);
   return out;
 }
@@ -220,9 +226,9 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
     return fail(RegistrationStatus::kInternalError, std::string("front end failed: ") + e.what());
   }
   if (stopRequested(stop)) return fail(RegistrationStatus::kCancelled, "cancelled after the front end");
-  registration = registerCorrespondences(
-      result.features.correspondences,
-      withResolutionUnits(mac_params, feature_params, result.features.stats.resolution), stop);
+  const MacParams params = withResolutionUnits(mac_params, feature_params, result.features.stats.resolution);
+  registration = registerCorrespondences(result.features.correspondences, params, stop);
+  verifyAlignment(result.features, params, registration);
   return result;
 }
 

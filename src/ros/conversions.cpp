@@ -222,6 +222,8 @@ constexpr std::uint8_t statusConstant(RegistrationStatus status) {
       return ResultMsg::INTERNAL_ERROR;
     case RegistrationStatus::kCancelled:
       return ResultMsg::CANCELLED;
+    case RegistrationStatus::kUnverified:
+      return ResultMsg::UNVERIFIED;
   }
   return ResultMsg::INTERNAL_ERROR;
 }
@@ -235,7 +237,8 @@ static_assert(mirrors(RegistrationStatus::kSuccess) && mirrors(RegistrationStatu
                   mirrors(RegistrationStatus::kEmptyGraph) && mirrors(RegistrationStatus::kNoClique) &&
                   mirrors(RegistrationStatus::kNoValidHypothesis) &&
                   mirrors(RegistrationStatus::kTooFewInliers) &&
-                  mirrors(RegistrationStatus::kInternalError) && mirrors(RegistrationStatus::kCancelled),
+                  mirrors(RegistrationStatus::kInternalError) && mirrors(RegistrationStatus::kCancelled) &&
+                  mirrors(RegistrationStatus::kUnverified),
               "RegistrationResult.msg's status constants must equal mac_registration::RegistrationStatus");
 
 }  // namespace
@@ -244,7 +247,7 @@ std::uint8_t toStatusMsg(RegistrationStatus status) { return statusConstant(stat
 
 std::string statusName(std::uint8_t status) {
   if (status == ResultMsg::MISSING_ODOMETRY) return "missing odometry";
-  if (status <= static_cast<std::uint8_t>(RegistrationStatus::kCancelled))
+  if (status <= static_cast<std::uint8_t>(RegistrationStatus::kUnverified))
     return toString(static_cast<RegistrationStatus>(status));
   return "unknown status " + std::to_string(status);
 }
@@ -271,6 +274,33 @@ void fillResultMsg(const MacResult& r, mac_registration::RegistrationResult& msg
   msg.time_evaluation_ms = r.times.evaluation_ms;
   msg.time_refinement_ms = r.times.refinement_ms;
   msg.time_total_ms = r.times.total_ms + msg.time_front_end_ms;
+  fillVerification(r, msg);
+}
+
+void fillVerification(const MacResult& r, mac_registration::RegistrationResult& msg) {
+  msg.confidence = r.confidence;
+  msg.has_estimate = r.success || r.status == RegistrationStatus::kUnverified ||
+                     r.status == RegistrationStatus::kTooFewInliers;
+  msg.estimate = toTransformMsg(msg.has_estimate ? r.T_target_source : Eigen::Isometry3d::Identity());
+  const VerificationSignals& s = r.verification;
+  msg.rival_ratio = s.rival_ratio;
+  msg.rival_rotation_deg = s.rival_rotation_deg;
+  msg.rival_displacement = s.rival_displacement;
+  msg.aligned_overlap = s.aligned_overlap;
+  msg.seen_on_surface = s.seen_on_surface;
+  msg.free_space_violation = s.free_space_violation;
+  msg.alternatives.clear();
+  for (const PoseAlternative& a : r.alternatives) {
+    mac_registration::CompetingPose alternative;
+    alternative.transform = toTransformMsg(a.T_target_source);
+    alternative.score = a.score;
+    alternative.inliers = a.inliers;
+    alternative.score_ratio = a.score_ratio;
+    alternative.rotation_deg = a.rotation_deg;
+    alternative.displacement = a.displacement;
+    msg.alternatives.push_back(alternative);
+  }
+  msg.time_verification_ms = r.times.verification_ms;
 }
 
 void fillFrontEndStats(const FrontEndStats& s, mac_registration::RegistrationResult& msg) {

@@ -27,6 +27,7 @@ mac_registration::RegistrationResult invalidInput(const std::string& message) {
   msg.status = mac_registration::RegistrationResult::INVALID_INPUT;
   msg.message = message;
   msg.transform.rotation.w = 1.0;
+  fillVerification(MacResult{}, msg);  // nothing verified: no estimate, NaN signals
   return msg;
 }
 
@@ -459,6 +460,7 @@ void RegistrationServer::publish(Outcome& outcome) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++registrations_;
   failures_ += !msg.success;
+  unverified_ += msg.status == mac_registration::RegistrationResult::UNVERIFIED;
   last_result_ = msg;
 }
 
@@ -468,12 +470,17 @@ void RegistrationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatusW
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "waiting for input");
   } else if (last_result_.success) {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "last registration succeeded");
+  } else if (last_result_.status == mac_registration::RegistrationResult::UNVERIFIED) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "last registration not verified (no tf sent): " + last_result_.message);
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "last registration failed: " + last_result_.message);
   }
   status.add("registrations", registrations_);
   status.add("failures", failures_);
+  status.add("rejected by the verification", unverified_);
+  status.add("last confidence", last_result_.confidence);
   status.add("inputs dropped (worker busy)", jobs_.dropped());
   status.add("last inliers", last_result_.inliers);
   status.add("last total time [ms]", last_result_.time_total_ms);

@@ -72,6 +72,21 @@ TEST(PairsTable, ReadsTheShippedLayoutWithPathsRelativeToTheTable) {
   EXPECT_TRUE(pairs[0].hasClouds());
 }
 
+TEST(PairsTable, PairsWithoutARightAnswerAndNamedRows) {
+  TempDir dir;
+  const std::string table = dir.write("negatives.tsv",
+                                      "scene\tbenchmark\tname\ttarget_file\tsource_file\tT\n"
+                                      "kitchen\tno overlap\t1->21 (0 %)\ta.ply\tb.ply\tnone\n"
+                                      "kitchen\tright\t\ta.ply\tb.ply\t1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n");
+  const auto pairs = readPairsTable(table);
+  ASSERT_EQ(pairs.size(), 2u);
+  EXPECT_FALSE(pairs[0].has_ground_truth);
+  EXPECT_EQ(pairs[0].name, "kitchen 1->21 (0 %)");
+  EXPECT_EQ(pairs[0].subset, "no overlap");
+  EXPECT_TRUE(pairs[1].has_ground_truth);
+  EXPECT_EQ(pairs[1].name, "kitchen row 3");  // no name, no indices: the line
+}
+
 TEST(PairsTable, MissingColumnsAndShortMatricesAreRefused) {
   TempDir dir;
   EXPECT_THROW(readPairsTable(dir.write("a.tsv", "source_file\ttarget_file\n")), std::runtime_error);
@@ -109,6 +124,11 @@ TEST(CorrespondenceSets, FromAListFile) {
   EXPECT_EQ(sets[1].subset, "all");
   EXPECT_EQ(sets[0].correspondences_path, dir.file("x.txt"));
   EXPECT_DOUBLE_EQ(sets[1].T_target_source_gt.translation().z(), 3.0);
+  EXPECT_TRUE(sets[0].has_ground_truth);
+  const auto negatives = readCorrespondenceSets(dir.write("negatives.txt", "z.txt none unrelated\n"));
+  ASSERT_EQ(negatives.size(), 1u);
+  EXPECT_FALSE(negatives[0].has_ground_truth);
+  EXPECT_EQ(negatives[0].subset, "unrelated");
 }
 
 }  // namespace

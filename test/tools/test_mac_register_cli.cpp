@@ -98,6 +98,20 @@ TEST(MacRegisterCli, CloudsRegisterAndPrintTheFrontEnd) {
   EXPECT_GT(readCorrespondencesFile(dir.file("c.txt")).size(), 1000u);
 }
 
+TEST(MacRegisterCli, CloudsThatDoNotOverlapExitOneAndSayWhy) {
+  // redkitchen fragments 21 and 0: 1.4 % overlap. MAC finds a transform; the verification refuses it.
+  TempDir dir;
+  const CliRun r = run(dataPath("redkitchen_21/cloud_bin_21.pcd") + " " +
+                       demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd") + " --config " + MAC_CONFIG_DIR +
+                       "/indoor_rgbd.yaml --out " + dir.file("T.txt"));
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(contains(r.output, "registration failed: unverified: confidence")) << r.output;
+  EXPECT_TRUE(contains(r.output, "verification.min_confidence")) << r.output;
+  EXPECT_TRUE(contains(r.output, "T_target_source (unverified")) << r.output;
+  EXPECT_TRUE(contains(r.output, "verification: confidence")) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("T.txt")));  // no transform to act on
+}
+
 TEST(MacRegisterCli, MissingAndCorruptCloudsExitTwoNamingTheFile) {
   TempDir dir;
   const std::string good = demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd");

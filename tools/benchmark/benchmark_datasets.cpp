@@ -133,11 +133,16 @@ std::vector<BenchmarkPair> readPairsTable(const std::string& path) {
     BenchmarkPair pair;
     pair.source_path = relativeTo(path, field("source_file"));
     pair.target_path = relativeTo(path, field("target_file"));
-    pair.T_target_source_gt = parseRowMajor(field("T"), where(path, number));
+    if (field("T") == "none")
+      pair.has_ground_truth = false;
+    else
+      pair.T_target_source_gt = parseRowMajor(field("T"), where(path, number));
     pair.subset = field("benchmark").empty() ? "all" : field("benchmark");
     const std::string i = field("i_target"), j = field("j_source");
-    pair.name = (field("scene").empty() ? "" : field("scene") + " ") +
-                (i.empty() || j.empty() ? "row " + std::to_string(number) : j + "->" + i);
+    const std::string label = !field("name").empty()   ? field("name")
+                              : i.empty() || j.empty() ? "row " + std::to_string(number)
+                                                       : j + "->" + i;
+    pair.name = (field("scene").empty() ? "" : field("scene") + " ") + label;
     pairs.push_back(pair);
   }
   if (column.empty()) throw std::runtime_error("'" + path + "' has no header row");
@@ -182,7 +187,10 @@ std::vector<BenchmarkPair> readCorrespondenceSets(const std::string& folder_or_l
       set.name = fs::path(corr).stem().string();
       set.subset = subset.empty() ? "all" : subset;
       set.correspondences_path = relativeTo(folder_or_list, corr);
-      set.T_target_source_gt = readTransformFile(relativeTo(folder_or_list, gt));
+      if (gt == "none")
+        set.has_ground_truth = false;
+      else
+        set.T_target_source_gt = readTransformFile(relativeTo(folder_or_list, gt));
       sets.push_back(set);
     }
   }

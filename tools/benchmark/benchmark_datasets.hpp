@@ -13,6 +13,9 @@ struct BenchmarkPair {
   std::string source_path, target_path;  // clouds (both set), or
   std::string correspondences_path;      // a correspondence file ("xs ys zs xt yt zt" a line)
   Eigen::Isometry3d T_target_source_gt = Eigen::Isometry3d::Identity();
+  // False for a pair with no right answer (clouds that do not overlap, unrelated scenes): its ground-truth
+  // field is "none" in the table, and any success on it is a false accept.
+  bool has_ground_truth = true;
 
   bool hasClouds() const { return correspondences_path.empty(); }
 };
@@ -34,13 +37,15 @@ std::vector<BenchmarkPair> pairsFromGtLog(const std::string& fragment_dir, const
 
 // A tab-separated table with a header row ('#' lines skipped): columns source_file, target_file and
 // a T column (header starting with "T": 16 numbers, row-major T_target_source) are required; benchmark
-// (the subset), scene, i_target and j_source are used when present. Relative paths are relative to the
-// table's folder. This reads the shipped 3dmatch/pairs_available.tsv.
+// (the subset), scene, name (else i_target and j_source) are used when present. Relative paths are relative
+// to the table's folder. This reads the shipped 3dmatch/pairs_available.tsv. A T field "none" marks a pair
+// without a right answer (has_ground_truth false).
 std::vector<BenchmarkPair> readPairsTable(const std::string& path);
 
 // Correspondence sets with ground truth: either a folder of "<name>@corr.txt" + "<name>@GTmat.txt"
 // (the MAC authors' layout; subset = the folder's name), or a list file of "CORR_FILE GT_FILE [SUBSET]"
-// lines (relative to the list's folder; subset "all" when not given).
+// lines (relative to the list's folder; subset "all" when not given; GT_FILE "none" for a set without a
+// right answer).
 std::vector<BenchmarkPair> readCorrespondenceSets(const std::string& folder_or_list);
 
 }  // namespace mac_registration

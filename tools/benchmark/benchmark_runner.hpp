@@ -1,7 +1,11 @@
 #pragma once
 
+#include <functional>
+
 #include "benchmark_datasets.hpp"
 #include "benchmark_table.hpp"
+#include "mac_registration/core/correspondence_set.hpp"
+#include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/features/feature_params.hpp"
 
@@ -14,10 +18,30 @@ struct BenchmarkSettings {
   // The RANSAC baseline on the same correspondences (only in builds with the PCL front end).
   bool baseline = true;
   int ransac_max_iterations = 50000;
+  // The clouds' stage of the verification after the core (as registerClouds); false judges the
+  // correspondences alone, as a caller of registerCorrespondences gets them.
+  bool cloud_verification = true;
 };
 
 // Whether this build has the PCL front end (clouds in) and the RANSAC baseline.
 bool benchmarkHasFeatures();
+
+// A benchmark pair made ready to register: its correspondences (from the front end, or the file), the
+// parameters registerClouds() would use, and with clouds the front end's stage of the verification.
+struct PreparedPair {
+  CorrespondenceSet correspondences;
+  MacParams mac;
+  FrontEndTimes front_end;
+  // The cloud stage of the verification on a result (empty for correspondence sets). It reads the
+  // keypoints only, so it also judges results on other correspondence sets between the same clouds.
+  std::function<void(MacResult&)> verify_with_clouds;
+
+  // The core on `set`, then the cloud stage: what registerClouds() does with these clouds.
+  MacResult registerSet(const CorrespondenceSet& set) const;
+};
+
+// Throws std::runtime_error when the clouds or the file cannot be read or the front end refuses them.
+PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& settings);
 
 // Front end (clouds) or the correspondence file, then MAC and the baseline on the very same
 // correspondences, judged against the ground truth. Never throws: a pair that cannot be run comes back

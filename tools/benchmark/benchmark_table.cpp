@@ -71,6 +71,7 @@ SummaryRow summarizeGroup(const std::string& subset, const std::string& method,
   s.hypotheses_ms = medianOf<M>(ran, [](const M& m) { return m.times.hypotheses_ms; });
   s.evaluation_ms = medianOf<M>(ran, [](const M& m) { return m.times.evaluation_ms; });
   s.refinement_ms = medianOf<M>(ran, [](const M& m) { return m.times.refinement_ms; });
+  s.verification_ms = medianOf<M>(ran, [](const M& m) { return m.times.verification_ms; });
   s.total_ms = medianOf<M>(ran, [](const M& m) { return m.times.total_ms; });
   return row;
 }
@@ -142,7 +143,7 @@ void printSummary(std::ostream& out, const std::vector<SummaryRow>& rows, const 
       << std::setw(8) << "resol" << std::setw(8) << "voxel" << std::setw(8) << "normals" << std::setw(8)
       << "fpfh" << std::setw(8) << "match" << std::setw(8) << "graph" << std::setw(8) << "SOG" << std::setw(8)
       << "cliques" << std::setw(8) << "select" << std::setw(8) << "hyp" << std::setw(8) << "eval"
-      << std::setw(8) << "refine" << std::setw(9) << "total"
+      << std::setw(8) << "refine" << std::setw(8) << "verify" << std::setw(9) << "total"
       << "\n";
   for (const SummaryRow& r : rows) {
     const FrontEndTimes& f = r.median_front_end;
@@ -151,7 +152,7 @@ void printSummary(std::ostream& out, const std::vector<SummaryRow>& rows, const 
         << std::right << std::setprecision(1);
     for (double v : {f.resolution_ms, f.downsample_ms, f.normals_ms, f.features_ms, f.matching_ms, s.graph_ms,
                      s.second_order_ms, s.clique_search_ms, s.selection_ms, s.hypotheses_ms, s.evaluation_ms,
-                     s.refinement_ms})
+                     s.refinement_ms, s.verification_ms})
       out << std::setw(8) << v;
     out << std::setw(9) << s.total_ms << "\n";
   }
@@ -163,7 +164,7 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
   out << "pair,subset,method,correspondences,inlier_ratio,registered,status,rotation_error_deg,"
          "translation_error_m,recalled,inliers,resolution_ms,downsample_ms,normals_ms,fpfh_ms,matching_ms,"
          "graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,evaluation_ms,refinement_ms,"
-         "method_total_ms,error\n";
+         "verification_ms,method_total_ms,error\n";
   const auto quoted = [](const std::string& text) {
     std::string q = "\"";
     for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
@@ -179,7 +180,7 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
     if (p.methods.empty()) {
       prefix("");
       out << "0,,,,0,0," << f.resolution_ms << "," << f.downsample_ms << "," << f.normals_ms << ","
-          << f.features_ms << "," << f.matching_ms << ",0,0,0,0,0,0,0,0," << quoted(p.error) << "\n";
+          << f.features_ms << "," << f.matching_ms << ",0,0,0,0,0,0,0,0,0," << quoted(p.error) << "\n";
       continue;
     }
     for (const MethodOutcome& m : p.methods) {
@@ -189,8 +190,8 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
           << m.translation_error << "," << m.recalled << "," << m.inliers << "," << f.resolution_ms << ","
           << f.downsample_ms << "," << f.normals_ms << "," << f.features_ms << "," << f.matching_ms << ","
           << s.graph_ms << "," << s.second_order_ms << "," << s.clique_search_ms << "," << s.selection_ms
-          << "," << s.hypotheses_ms << "," << s.evaluation_ms << "," << s.refinement_ms << "," << s.total_ms
-          << "," << quoted(p.error) << "\n";
+          << "," << s.hypotheses_ms << "," << s.evaluation_ms << "," << s.refinement_ms << ","
+          << s.verification_ms << "," << s.total_ms << "," << quoted(p.error) << "\n";
     }
   }
 }

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@ enum class RegistrationStatus : std::uint8_t {
   kTooFewInliers,          // the best transform has fewer than min_inliers inliers
   kInternalError,          // igraph failed; message carries its error
   kCancelled,              // the caller's StopFlag was raised before the registration finished
+  kUnverified,             // a transform was found but the verification did not confirm it (see message)
 };
 
 const char* toString(RegistrationStatus status);
@@ -32,6 +34,7 @@ struct StageTimes {               // wall-clock milliseconds
   double hypotheses_ms = 0.0;     // SVD per selected clique
   double evaluation_ms = 0.0;     // scoring every hypothesis on all correspondences
   double refinement_ms = 0.0;
+  double verification_ms = 0.0;  // signals, alternatives and confidence (with clouds: the front end's too)
   double total_ms = 0.0;
 };
 
@@ -53,13 +56,47 @@ struct RegistrationCounters {
   int refinement_iterations = 0;
 };
 
+// A pose that competes with the reported one: what a caller needs to disambiguate (odometry, a particle
+// filter, the next scan).
+struct PoseAlternative {
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+  double score = 0.0;         // evaluation metric, after refinement
+  std::size_t inliers = 0;    // of the correspondences, at evaluation.inlier_threshold
+  double score_ratio = 0.0;   // score / the reported transform's score
+  double rotation_deg = 0.0;  // [deg] rotation between this pose and the reported one
+  double displacement = 0.0;  // [m] RMS distance between the source points under the two poses
+};
+
+constexpr double kNotMeasured = std::numeric_limits<double>::quiet_NaN();
+
+// The evidence the verification decided from (core/verification.hpp); NaN where a signal was not measured
+// (no clouds given, verification off, or no transform to verify).
+struct VerificationSignals {
+  // From the correspondences. The best rival: the hypothesis at a clearly different pose (more than
+  // verification.distinct_pose_factor x tau RMS away) that explains most of what the reported pose
+  // leaves unexplained, scored on those correspondences alone.
+  double rival_ratio = kNotMeasured;         // its score / the reported score; 0 = no rival
+  double rival_rotation_deg = kNotMeasured;  // [deg] its rotation from the reported pose
+  double rival_displacement = kNotMeasured;  // [m] its RMS displacement of the source points
+  // From the clouds (front end only), on the keypoints, at tau = evaluation.inlier_threshold.
+  double aligned_overlap = kNotMeasured;  // share of the aligned source within tau of the target
+  // Of the aligned source keypoints in directions the target's sensor saw (its viewpoint), the share on
+  // the target's surfaces (within tau).
+  double seen_on_surface = kNotMeasured;
+  // Share of keypoints lying more than tau in front of everything the other cloud's sensor saw in their
+  // direction, in space it saw through; the larger of the two views (target seeing the aligned source,
+  // source seeing the aligned target).
+  double free_space_violation = kNotMeasured;
+};
+
 struct MacResult {
   bool success = false;
   RegistrationStatus status = RegistrationStatus::kInternalError;
   std::string message;                // why it failed, or a one-line summary on success
   std::vector<std::string> warnings;  // bounds that were hit and what was done about them
   // Maps source points into the target frame (as tf2's lookupTransform(target, source)). Identity, and
-  // not to be used, unless success or status == kTooFewInliers (then the best transform found).
+  // not to be used, unless success, or status kTooFewInliers or kUnverified (then the best transform found,
+  // unverified).
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
   std::vector<int> inlier_indices;     // indices into the caller's correspondences
   double score = 0.0;                  // evaluation metric of T_target_source
@@ -67,6 +104,12 @@ struct MacResult {
   bool graph_reduced = false;          // a size or density bound left correspondences out of the graph
   RegistrationCounters counters;
   StageTimes times;
+  // How sure the verification is that T_target_source is right, in [0, 1]: success requires at least
+  // verification.min_confidence. 0 when nothing was verified (no transform, or verification off).
+  double confidence = 0.0;
+  VerificationSignals verification;
+  // Distinct competing poses, best first (at most verification.max_alternatives), each refined.
+  std::vector<PoseAlternative> alternatives;
 };
 
 }  // namespace mac_registration

@@ -109,6 +109,23 @@ struct RefinementParams {
   int max_iterations = 20;
 };
 
+// Stage 8: verification, after refinement: is the transform right? Decides success from evidence that
+// separates right from wrong poses (see core/verification.hpp), not from the inlier count alone.
+struct VerificationParams {
+  // Off: success as before (min_inliers alone), no confidence, no alternatives.
+  bool enabled = true;
+  // Fewest confidence for a success, in [0, 1]; below it the result is kUnverified and carries its best
+  // transform marked as such. 0 accepts every transform (the signals are still measured). What a value
+  // means is measured, not assumed: BENCHMARKS.md lists the right poses kept and the wrong ones accepted
+  // at each value (0.5: with clouds, every right pose of 34 kept, none of 97 wrong ones accepted).
+  double min_confidence = 0.5;
+  // [x evaluation.inlier_threshold], > 0: a pose counts as a rival when it moves the source points, RMS,
+  // more than this many inlier thresholds away from the reported pose.
+  double distinct_pose_factor = 5.0;
+  // Rival poses reported with the result [count], in [0, 10]; the best rival is measured even at 0.
+  std::size_t max_alternatives = 3;
+};
+
 struct MacParams {
   GraphParams graph;
   CliqueSearchParams cliques;
@@ -116,6 +133,7 @@ struct MacParams {
   HypothesisParams hypotheses;
   EvaluationParams evaluation;
   RefinementParams refinement;
+  VerificationParams verification;
   // Worker threads for the parallel stages, 0 = OpenMP's default. Results do not depend on it.
   int num_threads = 0;
 };

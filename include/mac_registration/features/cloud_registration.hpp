@@ -35,6 +35,10 @@ struct FeatureCorrespondences {
   // what an evaluation needs to relate the matches to the clouds (e.g. overlap, feature-match recall).
   PointCloud::Ptr source_keypoints, target_keypoints;
   std::vector<int> source_indices, target_indices;
+  // The keypoints' normals (oriented towards each cloud's viewpoint) and where the target was seen from:
+  // what the verification of an alignment compares.
+  pcl::PointCloud<pcl::Normal>::Ptr source_keypoint_normals, target_keypoint_normals;
+  Eigen::Vector3f source_viewpoint = Eigen::Vector3f::Zero(), target_viewpoint = Eigen::Vector3f::Zero();
 };
 
 // One cloud through the front end up to its descriptors: what matching needs from it. Describing a cloud
@@ -50,6 +54,8 @@ struct DescribedCloud {
   std::size_t voxels = 0;      // keypoints after the voxel grid
   std::size_t no_feature = 0;  // of them, without a normal or a usable descriptor
   double resolution = 0.0;     // [m] mean nearest-neighbour distance of the given cloud, 0 = not estimated
+  // Where the sensor was, in the cloud's frame (its sensor_origin_: a PCD's VIEWPOINT, else the origin).
+  Eigen::Vector3f viewpoint = Eigen::Vector3f::Zero();
   double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0;
 };
 

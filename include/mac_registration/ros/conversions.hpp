@@ -49,6 +49,9 @@ std::string statusName(std::uint8_t status);
 
 // Fills the core part of a result message (status, transform, counters, times).
 void fillResultMsg(const MacResult& result, mac_registration::RegistrationResult& msg);
+// The verification's part of the message (fillResultMsg calls it): confidence, the estimate (also when
+// unverified), the signals and the alternatives.
+void fillVerification(const MacResult& result, mac_registration::RegistrationResult& msg);
 void fillFrontEndStats(const FrontEndStats& stats, mac_registration::RegistrationResult& msg);
 
 }  // namespace mac_registration

@@ -127,6 +127,7 @@ class RegistrationServer {
 
   std::mutex stats_mutex_;
   std::size_t registrations_ = 0, failures_ = 0;
+  std::size_t unverified_ = 0;  // of the failures, transforms the verification did not confirm
   mac_registration::RegistrationResult last_result_;
 
   StopFlag stop_{false};

@@ -1,0 +1,43 @@
+#pragma once
+
+// The verification of an alignment by the clouds themselves, after the core's verification: the
+// correspondences are a few thousand matches, the clouds are what the sensors saw. A right pose lays the
+// source's surfaces onto the target's where the two overlap and never into space the other sensor saw
+// through; a wrong one puts them across the room, behind the walls, or onto the other side of a street.
+
+#include <Eigen/Geometry>
+#include <memory>
+
+#include "mac_registration/core/mac_result.hpp"
+#include "mac_registration/core/parameters.hpp"
+#include "mac_registration/features/cloud_registration.hpp"
+
+namespace mac_registration {
+
+// The two clouds as the sensors saw them (keypoints, normals, viewpoints), with their search structures
+// built once, so that several poses can be judged cheaply.
+class AlignmentJudge {
+ public:
+  // `tau` [m]: the distance within which an aligned keypoint meets the other cloud's surface, and the
+  // margin of the free-space test. `num_threads` 0 = OpenMP's default; the signals do not depend on it.
+  AlignmentJudge(const FeatureCorrespondences& features, double tau, int num_threads = 0);
+  ~AlignmentJudge();
+
+  // The cloud signals of one pose (aligned_overlap, seen_on_surface, free_space_violation); all NaN when
+  // either cloud has fewer than 3 keypoints, seen_on_surface NaN when the target saw fewer than 10 of
+  // the aligned source keypoints.
+  VerificationSignals judge(const Eigen::Isometry3d& T_target_source) const;
+
+ private:
+  struct View;
+  std::unique_ptr<View> source_, target_;
+  double tau_;
+  int threads_;
+};
+
+// The cloud stage of the verification: measures the cloud signals of a result that has a transform,
+// merges them into its signals and decides again (decideVerification). Nothing when verification is off
+// or the result has no transform. Its time is added to result.times (verification and total).
+void verifyAlignment(const FeatureCorrespondences& features, const MacParams& params, MacResult& result);
+
+}  // namespace mac_registration

@@ -1,0 +1,184 @@
+#include "mac_registration/features/cloud_verification.hpp"
+
+#include <omp.h>
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "mac_registration/core/verification.hpp"
+
+namespace mac_registration {
+namespace {
+
+// The nearest range a cloud's sensor saw in each direction from its viewpoint, on a grid of azimuth and
+// elevation: what lies nearer in that direction lies in space the sensor saw through.
+class RangeImage {
+ public:
+  RangeImage(const PointCloud& cloud, const Eigen::Vector3f& viewpoint, double bin_rad)
+      : viewpoint_(viewpoint), bin_(bin_rad) {
+    cols_ = std::max(1, int(std::ceil(2.0 * M_PI / bin_)));
+    rows_ = std::max(1, int(std::ceil(M_PI / bin_)));
+    nearest_.assign(std::size_t(cols_) * rows_, kUnseen);
+    for (const auto& p : cloud) {
+      int r = 0, c = 0;
+      float range = 0.0f;
+      if (!cell(p.getVector3fMap(), r, c, range)) continue;
+      float& n = nearest_[index(r, c)];
+      n = std::min(n, range);
+    }
+  }
+
+  // False where the sensor did not look towards `point`; else the nearest range seen in the 3 x 3
+  // cells around that direction (a point beside an edge is not in front of the far side) and the
+  // point's own range.
+  bool lookup(const Eigen::Vector3f& point, float& nearest_seen, float& range) const {
+    int r = 0, c = 0;
+    if (!cell(point, r, c, range) || nearest_[index(r, c)] == kUnseen) return false;
+    nearest_seen = kUnseen;
+    for (int rr = std::max(0, r - 1); rr <= std::min(rows_ - 1, r + 1); ++rr) {
+      for (int dc = -1; dc <= 1; ++dc)
+        nearest_seen = std::min(nearest_seen, nearest_[index(rr, (c + dc + cols_) % cols_)]);
+    }
+    return true;
+  }
+
+ private:
+  static constexpr float kUnseen = std::numeric_limits<float>::infinity();
+
+  std::size_t index(int r, int c) const { return std::size_t(r) * cols_ + c; }
+
+  bool cell(const Eigen::Vector3f& point, int& r, int& c, float& range) const {
+    const Eigen::Vector3f d = point - viewpoint_;
+    range = d.norm();
+    if (!(range > 0.0f) || !std::isfinite(range)) return false;
+    const double azimuth = std::atan2(d.y(), d.x());
+    const double elevation = std::asin(std::clamp(double(d.z()) / range, -1.0, 1.0));
+    c = std::clamp(int((azimuth + M_PI) / bin_), 0, cols_ - 1);
+    r = std::clamp(int((elevation + M_PI / 2) / bin_), 0, rows_ - 1);
+    return true;
+  }
+
+  Eigen::Vector3f viewpoint_;
+  double bin_;
+  int cols_ = 1, rows_ = 1;
+  std::vector<float> nearest_;
+};
+
+double share(std::size_t part, std::size_t whole) { return whole > 0 ? double(part) / double(whole) : 0.0; }
+
+// Fewest aligned keypoints the target must have seen for seen_on_surface to mean something.
+constexpr std::size_t kFewestSeen = 10;
+
+}  // namespace
+
+// One cloud as its sensor saw it.
+struct AlignmentJudge::View {
+  PointCloud::ConstPtr points;
+  Eigen::Vector3f viewpoint;
+  float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  std::unique_ptr<RangeImage> image;
+
+  View(const PointCloud::ConstPtr& cloud, const Eigen::Vector3f& from, double tau)
+      : points(cloud), viewpoint(from) {
+    tree.setInputCloud(cloud);
+    std::vector<float> ranges;
+    ranges.reserve(cloud->size());
+    for (const auto& p : *cloud) ranges.push_back((p.getVector3fMap() - viewpoint).norm());
+    max_range = *std::max_element(ranges.begin(), ranges.end());
+    std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
+    // Cells about tau wide at the median range: a few keypoints each on a surface facing the sensor.
+    const double median_range = std::max(1e-3f, ranges[ranges.size() / 2]);
+    image = std::make_unique<RangeImage>(*cloud, viewpoint, std::clamp(tau / median_range, 0.002, 0.1));
+  }
+
+  // How `placed` (points put into this cloud's frame) agree with what this sensor saw.
+  struct Agreement {
+    std::size_t points = 0, seen = 0, on_surface = 0, seen_on_surface = 0, in_free_space = 0;
+  };
+  Agreement compare(const std::vector<Eigen::Vector3f>& placed, double tau, int threads) const {
+    Agreement out;
+    out.points = placed.size();
+    std::size_t seen = 0, on = 0, seen_on = 0, front = 0;
+    const int n = int(placed.size());
+#pragma omp parallel for schedule(static) reduction(+ : seen, on, seen_on, front) num_threads(threads)
+    for (int i = 0; i < n; ++i) {
+      pcl::PointXYZ query;
+      query.getVector3fMap() = placed[i];
+      std::vector<int> index(1);
+      std::vector<float> squared(1);
+      const bool near = tree.nearestKSearch(query, 1, index, squared) == 1 && squared[0] < tau * tau;
+      float nearest_seen = 0.0f, range = 0.0f;
+      const bool looked = image->lookup(placed[i], nearest_seen, range);
+      on += near;
+      seen += looked;
+      seen_on += looked && near;
+      front += looked && !near && range < nearest_seen - tau;
+    }
+    out.seen = seen;
+    out.on_surface = on;
+    out.seen_on_surface = seen_on;
+    out.in_free_space = front;
+    return out;
+  }
+};
+
+AlignmentJudge::AlignmentJudge(const FeatureCorrespondences& f, double tau, int num_threads)
+    : tau_(tau), threads_(num_threads > 0 ? num_threads : omp_get_max_threads()) {
+  if (!f.source_keypoints || !f.target_keypoints || f.source_keypoints->size() < 3 ||
+      f.target_keypoints->size() < 3)
+    return;
+  source_ = std::make_unique<View>(f.source_keypoints, f.source_viewpoint, tau);
+  target_ = std::make_unique<View>(f.target_keypoints, f.target_viewpoint, tau);
+}
+
+AlignmentJudge::~AlignmentJudge() = default;
+
+VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
+  VerificationSignals signals;
+  if (!source_ || !target_) return signals;
+  const Eigen::Isometry3f forward = T.cast<float>();
+  const Eigen::Isometry3f inverse = forward.inverse();
+  std::vector<Eigen::Vector3f> source_in_target, target_in_source;
+  source_in_target.reserve(source_->points->size());
+  target_in_source.reserve(target_->points->size());
+  for (const auto& p : *source_->points) source_in_target.push_back(forward * p.getVector3fMap());
+  // Only what lies within the source sensor's reach can be judged by it: a map as the target would
+  // otherwise cost a query per map point and dilute the shares with places the scan never saw.
+  const float reach = source_->max_range + float(tau_);
+  for (const auto& p : *target_->points) {
+    const Eigen::Vector3f q = inverse * p.getVector3fMap();
+    if ((q - source_->viewpoint).norm() <= reach) target_in_source.push_back(q);
+  }
+  const View::Agreement seen_by_target = target_->compare(source_in_target, tau_, threads_);
+  const View::Agreement seen_by_source = source_->compare(target_in_source, tau_, threads_);
+  signals.aligned_overlap = share(seen_by_target.on_surface, seen_by_target.points);
+  signals.seen_on_surface = seen_by_target.seen >= kFewestSeen
+                                ? share(seen_by_target.seen_on_surface, seen_by_target.seen)
+                                : kNotMeasured;
+  signals.free_space_violation = std::max(share(seen_by_target.in_free_space, seen_by_target.points),
+                                          share(seen_by_source.in_free_space, seen_by_source.points));
+  return signals;
+}
+
+void verifyAlignment(const FeatureCorrespondences& features, const MacParams& params, MacResult& result) {
+  if (!params.verification.enabled) return;
+  if (!result.success && result.status != RegistrationStatus::kUnverified) return;
+  const auto start = std::chrono::steady_clock::now();
+  const AlignmentJudge judge(features, params.evaluation.inlier_threshold, params.num_threads);
+  const VerificationSignals clouds = judge.judge(result.T_target_source);
+  result.verification.aligned_overlap = clouds.aligned_overlap;
+  result.verification.seen_on_surface = clouds.seen_on_surface;
+  result.verification.free_space_violation = clouds.free_space_violation;
+  decideVerification(params.verification, result);
+  const double elapsed =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.times.verification_ms += elapsed;
+  result.times.total_ms += elapsed;
+}
+
+}  // namespace mac_registration

@@ -1,0 +1,280 @@
+// The verification stage on hand-made cases: a lone consensus, two equal consensus sets (ambiguous), a
+// dominant and a weak one, pure outliers; the evidence terms and the decision on hand-made signals.
+#include "mac_registration/core/pose_error.hpp"
+#include "mac_registration/core/verification.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/text_io.hpp"
+#include "test_support.hpp"
+
+namespace mac_registration {
+namespace {
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// Two scenes in one correspondence set: `first` correspondences with `first_inliers` of them under one
+// transform, then `second` with `second_inliers` under another (the synthetic scene, different seeds).
+struct TwoPoses {
+  CorrespondenceSet correspondences;
+  Eigen::Isometry3d first, second;
+};
+
+TwoPoses twoPoses(int first_count, double first_ratio, int second_count, double second_ratio) {
+  const SyntheticProblem a =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(first_count, first_ratio, 3));
+  const SyntheticProblem b =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(second_count, second_ratio, 4));
+  TwoPoses out;
+  out.first = a.T_target_source;
+  out.second = b.T_target_source;
+  const Eigen::Index n = a.correspondences.source_points.cols() + b.correspondences.source_points.cols();
+  out.correspondences.source_points.resize(3, n);
+  out.correspondences.target_points.resize(3, n);
+  out.correspondences.source_points << a.correspondences.source_points, b.correspondences.source_points;
+  out.correspondences.target_points << a.correspondences.target_points, b.correspondences.target_points;
+  return out;
+}
+
+bool near(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return rotationErrorDeg(a, b) < 2.0 && translationError(a, b) < 0.05;
+}
+
+TEST(PoseDistance, RmsDisplacementIsTheRootMeanSquareOverThePoints) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Eigen::Matrix3Xd points(3, 200);
+  for (Eigen::Index k = 0; k < points.cols(); ++k)
+    points.col(k) = Eigen::Vector3d(3.0 + gauss(rng), -1.0 + 2.0 * gauss(rng), 0.5 * gauss(rng));
+  const PointMoments moments = pointMoments(points);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
+    a.linear() = Eigen::Quaterniond(gauss(rng), gauss(rng), gauss(rng), gauss(rng)).normalized().matrix();
+    b.linear() = Eigen::Quaterniond(gauss(rng), gauss(rng), gauss(rng), gauss(rng)).normalized().matrix();
+    a.translation() = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < points.cols(); ++k)
+      sum += (a * points.col(k) - b * points.col(k)).squaredNorm();
+    EXPECT_NEAR(rmsDisplacement(a, b, moments), std::sqrt(sum / double(points.cols())), 1e-9);
+  }
+  EXPECT_NEAR(rmsDisplacement(Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(), moments), 0.0,
+              1e-12);
+  Eigen::Isometry3d shifted = Eigen::Isometry3d::Identity();
+  shifted.translation() = Eigen::Vector3d(0.0, 0.3, 0.4);
+  EXPECT_NEAR(rmsDisplacement(shifted, Eigen::Isometry3d::Identity(), moments), 0.5, 1e-12);
+}
+
+TEST(RivalRatio, ALoneConsensusStandsAlone) {
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.1, 7));
+  const MacResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_TRUE(near(result.T_target_source, problem.T_target_source));
+  // 100 inliers; a chance alignment of the 900 outliers explains a handful.
+  EXPECT_LT(result.verification.rival_ratio, 0.3);
+  EXPECT_GT(result.confidence, 0.9);
+  EXPECT_TRUE(contains(result.message, "confidence")) << result.message;
+  // Without clouds nothing about them is claimed.
+  EXPECT_TRUE(std::isnan(result.verification.aligned_overlap));
+  EXPECT_TRUE(std::isnan(result.verification.free_space_violation));
+}
+
+TEST(RivalRatio, TwoEqualConsensusSetsAreAmbiguousAndBothPosesAreReported) {
+  // 50 inliers under each of two poses (fewer than cliques.max_degeneracy: the search sees both).
+  const TwoPoses scene = twoPoses(250, 0.2, 250, 0.2);
+  const MacResult result = registerCorrespondences(scene.correspondences, test::roomScaleParams());
+  EXPECT_FALSE(result.success);
+  ASSERT_EQ(result.status, RegistrationStatus::kUnverified) << result.message;
+  EXPECT_GT(result.verification.rival_ratio, 0.8);
+  EXPECT_LT(result.confidence, 0.5);
+  EXPECT_TRUE(contains(result.message, "ambiguous")) << result.message;
+  // The best estimate is kept (one of the two poses), and the other is the first alternative.
+  const bool first = near(result.T_target_source, scene.first);
+  ASSERT_TRUE(first || near(result.T_target_source, scene.second));
+  ASSERT_FALSE(result.alternatives.empty());
+  const PoseAlternative& other = result.alternatives.front();
+  EXPECT_TRUE(near(other.T_target_source, first ? scene.second : scene.first));
+  EXPECT_GT(other.score_ratio, 0.8);
+  EXPECT_NEAR(other.rotation_deg, rotationErrorDeg(scene.first, scene.second), 1.0);
+  EXPECT_GT(other.displacement, test::roomScaleParams().verification.distinct_pose_factor * 0.05);
+}
+
+TEST(RivalRatio, ADominantConsensusWinsAndTheWeakOneIsItsAlternative) {
+  const TwoPoses scene = twoPoses(500, 0.12, 300, 0.05);  // 60 against 15 inliers
+  const MacResult result = registerCorrespondences(scene.correspondences, test::roomScaleParams());
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_TRUE(near(result.T_target_source, scene.first));
+  EXPECT_GT(result.verification.rival_ratio, 0.1);  // the weak set is seen ...
+  EXPECT_LT(result.verification.rival_ratio, 0.4);  // ... and is a quarter of the evidence
+  ASSERT_FALSE(result.alternatives.empty());
+  EXPECT_TRUE(near(result.alternatives.front().T_target_source, scene.second));
+  EXPECT_LT(result.alternatives.front().score_ratio, 0.4);
+}
+
+TEST(RivalRatio, PureOutliersAreNeverAVerifiedSuccess) {
+  for (std::uint32_t seed : {1u, 2u, 3u}) {
+    const SyntheticProblem problem =
+        makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(2000, 0.0, seed));
+    const MacResult result = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+    EXPECT_FALSE(result.success) << "seed " << seed << ": " << result.message;
+    if (result.status == RegistrationStatus::kUnverified) {
+      EXPECT_GT(result.verification.rival_ratio, 0.7) << "seed " << seed;
+      EXPECT_FALSE(result.T_target_source.isApprox(Eigen::Isometry3d::Identity()));  // the estimate stays
+    }
+  }
+}
+
+TEST(RivalRatio, OffMeansTheInlierCountAlone) {
+  const TwoPoses scene = twoPoses(250, 0.2, 250, 0.2);
+  MacParams params = test::roomScaleParams();
+  params.verification.enabled = false;
+  const MacResult result = registerCorrespondences(scene.correspondences, params);
+  EXPECT_TRUE(result.success) << result.message;
+  EXPECT_EQ(result.confidence, 0.0);
+  EXPECT_TRUE(result.alternatives.empty());
+  EXPECT_TRUE(std::isnan(result.verification.rival_ratio));
+  // min_confidence 0 accepts it too, but measures: the doubt is in the result.
+  params.verification.enabled = true;
+  params.verification.min_confidence = 0.0;
+  const MacResult measured = registerCorrespondences(scene.correspondences, params);
+  EXPECT_TRUE(measured.success);
+  EXPECT_LT(measured.confidence, 0.5);
+  EXPECT_FALSE(measured.alternatives.empty());
+}
+
+TEST(RivalRatio, AlternativesAreBoundedByMaxAlternatives) {
+  const TwoPoses scene = twoPoses(250, 0.2, 250, 0.2);
+  MacParams params = test::roomScaleParams();
+  params.verification.max_alternatives = 0;
+  const MacResult result = registerCorrespondences(scene.correspondences, params);
+  EXPECT_TRUE(result.alternatives.empty());
+  EXPECT_GT(result.verification.rival_ratio, 0.8);  // measured all the same
+  EXPECT_EQ(result.status, RegistrationStatus::kUnverified);
+}
+
+VerificationSignals goodCloudSignals() {
+  VerificationSignals s;
+  s.rival_ratio = 0.3;
+  s.rival_rotation_deg = 90.0;
+  s.rival_displacement = 2.0;
+  s.aligned_overlap = 0.4;
+  s.seen_on_surface = 0.8;
+  s.free_space_violation = 0.002;
+  return s;
+}
+
+const EvidenceTerm& term(const std::vector<EvidenceTerm>& terms, const std::string& signal) {
+  for (const EvidenceTerm& t : terms) {
+    if (t.signal == signal) return t;
+  }
+  throw std::runtime_error("no term " + signal);
+}
+
+TEST(Evidence, EachContradictionHasItsReasonAndLowersTheConfidence) {
+  const VerificationSignals good = goodCloudSignals();
+  const double base = confidenceOf(verificationEvidence(good));
+  EXPECT_GT(base, 0.95);
+  for (const EvidenceTerm& t : verificationEvidence(good)) EXPECT_TRUE(t.reason.empty()) << t.signal;
+
+  VerificationSignals s = good;
+  s.free_space_violation = 0.05;
+  auto terms = verificationEvidence(s);
+  EXPECT_TRUE(contains(term(terms, "free_space_violation").reason, "5.0 %"))
+      << term(terms, "free_space_violation").reason;
+  EXPECT_LT(confidenceOf(terms), 0.01);  // one clear contradiction outweighs the rest
+
+  s = good;
+  s.aligned_overlap = 0.03;
+  terms = verificationEvidence(s);
+  EXPECT_TRUE(contains(term(terms, "aligned_overlap").reason, "aligned overlap 3.0 % below 15 %"))
+      << term(terms, "aligned_overlap").reason;
+  EXPECT_LT(confidenceOf(terms), base);
+
+  s = good;
+  s.seen_on_surface = 0.2;
+  terms = verificationEvidence(s);
+  EXPECT_TRUE(contains(term(terms, "seen_on_surface").reason, "20 %"))
+      << term(terms, "seen_on_surface").reason;
+  EXPECT_LT(confidenceOf(terms), base);
+
+  s = good;
+  s.rival_ratio = 0.97;
+  s.rival_rotation_deg = 94.0;
+  terms = verificationEvidence(s);
+  EXPECT_TRUE(contains(term(terms, "rival_ratio").reason, "ambiguous: a pose 94 deg"))
+      << term(terms, "rival_ratio").reason;
+  EXPECT_TRUE(contains(term(terms, "rival_ratio").reason, "0.97")) << term(terms, "rival_ratio").reason;
+}
+
+TEST(Evidence, ConfidenceFallsAsEachSignalWorsens) {
+  double previous = 1.0;
+  for (double ratio : {0.0, 0.4, 0.6, 0.8, 1.0}) {
+    VerificationSignals s;
+    s.rival_ratio = ratio;
+    const double c = confidenceOf(verificationEvidence(s));
+    EXPECT_LE(c, previous) << ratio;
+    EXPECT_GE(c, 0.0);
+    EXPECT_LE(c, 1.0);
+    previous = c;
+  }
+  previous = 1.0;
+  for (double v : {0.0, 0.01, 0.02, 0.04}) {
+    VerificationSignals s = goodCloudSignals();
+    s.free_space_violation = v;
+    const double c = confidenceOf(verificationEvidence(s));
+    EXPECT_LE(c, previous) << v;
+    previous = c;
+  }
+  // Signals that were not measured say nothing.
+  EXPECT_TRUE(verificationEvidence(VerificationSignals{}).empty());
+  EXPECT_DOUBLE_EQ(confidenceOf({}), 0.5);
+}
+
+TEST(Decision, TheCloudStageCanRejectAndConfirmWhatTheCoreDecided) {
+  MacResult result;
+  result.success = true;
+  result.status = RegistrationStatus::kSuccess;
+  result.T_target_source.translation() = Eigen::Vector3d(1.0, 2.0, 3.0);
+  result.score = 50.0;
+  result.counters.inliers = 60;
+  result.counters.correspondences = 1000;
+  result.verification.rival_ratio = 0.75;  // the correspondences alone are unsure
+  const VerificationParams params;
+  decideVerification(params, result);
+  EXPECT_EQ(result.status, RegistrationStatus::kUnverified);
+  EXPECT_FALSE(result.success);
+  EXPECT_TRUE(contains(result.message, "verification.min_confidence")) << result.message;
+  EXPECT_DOUBLE_EQ(result.T_target_source.translation().y(), 2.0);  // kept, marked unverified
+
+  // Clouds that agree: confirmed.
+  VerificationSignals clouds = goodCloudSignals();
+  clouds.rival_ratio = 0.75;
+  result.verification = clouds;
+  decideVerification(params, result);
+  EXPECT_TRUE(result.success) << result.message;
+  EXPECT_EQ(result.status, RegistrationStatus::kSuccess);
+  EXPECT_TRUE(contains(result.message, "60 inliers")) << result.message;
+
+  // Clouds that contradict: rejected, the free space named first.
+  result.verification.free_space_violation = 0.08;
+  decideVerification(params, result);
+  EXPECT_EQ(result.status, RegistrationStatus::kUnverified);
+  EXPECT_LT(result.message.find("empty"), result.message.find("ambiguous")) << result.message;
+
+  // Other failures are not the verification's to change.
+  MacResult failed;
+  failed.status = RegistrationStatus::kNoClique;
+  failed.message = "no clique";
+  decideVerification(params, failed);
+  EXPECT_EQ(failed.status, RegistrationStatus::kNoClique);
+  EXPECT_EQ(failed.message, "no clique");
+  EXPECT_EQ(failed.confidence, 0.0);
+}
+
+}  // namespace
+}  // namespace mac_registration

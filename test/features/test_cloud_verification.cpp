@@ -1,0 +1,217 @@
+// The clouds' verification of an alignment: each signal on a hand-made room seen from inside, then end
+// to end on shipped 3DMatch fragments: a pair MAC gets wrong (21 -> 4) and a pair that does not overlap
+// (21 -> 0) must be rejected, a right pair (4 -> 0) kept.
+#include "mac_registration/core/pose_error.hpp"
+#include "mac_registration/features/cloud_verification.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "mac_registration/core/text_io.hpp"
+#include "mac_registration/core/verification.hpp"
+
+namespace mac_registration {
+namespace {
+
+std::string testDataPath(const std::string& name) { return std::string(MAC_TEST_DATA_DIR) + "/" + name; }
+std::string demoDataPath(const std::string& name) { return std::string(MAC_DATA_DIR) + "/" + name; }
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// The walls, floor and ceiling of a 4 x 4 x 3 m room, every `spacing` metres from `offset`, with inward
+// normals: what a sensor in the middle sees.
+void addRoom(const Eigen::Vector3f& centre, float spacing, float offset, PointCloud& points,
+             pcl::PointCloud<pcl::Normal>& normals) {
+  const Eigen::Vector3f half(2.0f, 2.0f, 1.5f);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const float side : {-1.0f, 1.0f}) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      for (float a = -half[u] + offset; a < half[u]; a += spacing) {
+        for (float b = -half[v] + offset; b < half[v]; b += spacing) {
+          Eigen::Vector3f p;
+          p[axis] = side * half[axis];
+          p[u] = a;
+          p[v] = b;
+          pcl::PointXYZ point;
+          point.getVector3fMap() = centre + p;
+          points.push_back(point);
+          pcl::Normal n;
+          n.getNormalVector3fMap() = Eigen::Vector3f::Zero();
+          n.getNormalVector3fMap()[axis] = -side;
+          normals.push_back(n);
+        }
+      }
+    }
+  }
+}
+
+// Two scans of the same room, sampled on different grids, both seen from its middle.
+FeatureCorrespondences twoScansOfARoom() {
+  FeatureCorrespondences f;
+  f.source_keypoints = pcl::make_shared<PointCloud>();
+  f.target_keypoints = pcl::make_shared<PointCloud>();
+  f.source_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  f.target_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  addRoom(Eigen::Vector3f::Zero(), 0.05f, 0.025f, *f.source_keypoints, *f.source_keypoint_normals);
+  addRoom(Eigen::Vector3f::Zero(), 0.05f, 0.0f, *f.target_keypoints, *f.target_keypoint_normals);
+  return f;
+}
+
+Eigen::Isometry3d shifted(double x, double y, double z) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(x, y, z);
+  return T;
+}
+
+constexpr double kTau = 0.1;
+
+TEST(AlignmentSignals, TheRightPoseLiesOnTheSurfacesAndOutOfFreeSpace) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  const VerificationSignals s = AlignmentJudge(f, kTau).judge(Eigen::Isometry3d::Identity());
+  EXPECT_GT(s.aligned_overlap, 0.95);
+  EXPECT_GT(s.seen_on_surface, 0.95);
+  EXPECT_LT(s.free_space_violation, 0.005);
+  EXPECT_GT(confidenceOf(verificationEvidence(s)), 0.9);
+}
+
+TEST(AlignmentSignals, AShiftedRoomCutsThroughTheSpaceTheSensorSawEmpty) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  // 1 m along x: one wall of the source stands 1 m inside the target's room, in space it saw through.
+  const VerificationSignals s = AlignmentJudge(f, kTau).judge(shifted(1.0, 0.0, 0.0));
+  EXPECT_GT(s.free_space_violation, 0.1);
+  EXPECT_LT(s.aligned_overlap, 0.6);
+  const auto terms = verificationEvidence(s);
+  EXPECT_LT(confidenceOf(terms), 0.01);
+  bool named = false;
+  for (const EvidenceTerm& t : terms) named |= contains(t.reason, "saw as empty");
+  EXPECT_TRUE(named);
+}
+
+TEST(AlignmentSignals, ARoomPlacedBehindTheWallsSharesNothing) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  // 10 m away: behind the target's wall, where its sensor could not look; nothing is contradicted, and
+  // nothing agrees.
+  const VerificationSignals s = AlignmentJudge(f, kTau).judge(shifted(10.0, 0.0, 0.0));
+  EXPECT_LT(s.aligned_overlap, 0.01);
+  EXPECT_LT(s.seen_on_surface, 0.01);
+  EXPECT_LT(s.free_space_violation, 0.005);
+  EXPECT_LT(confidenceOf(verificationEvidence(s)), 0.1);
+}
+
+TEST(AlignmentSignals, AMapBeyondTheScansReachDoesNotDiluteIt) {
+  // The target as a map: the same room and, 50 m away, another one the source's sensor never reached.
+  const FeatureCorrespondences room = twoScansOfARoom();
+  FeatureCorrespondences map = twoScansOfARoom();
+  addRoom(Eigen::Vector3f(50.0f, 0.0f, 0.0f), 0.05f, 0.0f, *map.target_keypoints,
+          *map.target_keypoint_normals);
+  for (const Eigen::Isometry3d& pose : {Eigen::Isometry3d::Identity(), shifted(1.0, 0.0, 0.0)}) {
+    const VerificationSignals alone = AlignmentJudge(room, kTau).judge(pose);
+    const VerificationSignals in_map = AlignmentJudge(map, kTau).judge(pose);
+    EXPECT_NEAR(in_map.free_space_violation, alone.free_space_violation, 1e-9);
+    EXPECT_NEAR(in_map.aligned_overlap, alone.aligned_overlap, 1e-9);
+  }
+}
+
+TEST(AlignmentSignals, TheSignalsDoNotDependOnTheThreadCount) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  const VerificationSignals one = AlignmentJudge(f, kTau, 1).judge(shifted(0.7, 0.2, 0.0));
+  const VerificationSignals two = AlignmentJudge(f, kTau, 2).judge(shifted(0.7, 0.2, 0.0));
+  EXPECT_EQ(one.aligned_overlap, two.aligned_overlap);  // counts: exactly equal
+  EXPECT_EQ(one.seen_on_surface, two.seen_on_surface);
+  EXPECT_EQ(one.free_space_violation, two.free_space_violation);
+  EXPECT_GT(one.free_space_violation, 0.0);
+}
+
+TEST(AlignmentSignals, NoKeypointsNoSignals) {
+  FeatureCorrespondences f;
+  const VerificationSignals s = AlignmentJudge(f, kTau).judge(Eigen::Isometry3d::Identity());
+  EXPECT_TRUE(std::isnan(s.aligned_overlap));
+  EXPECT_TRUE(std::isnan(s.seen_on_surface));
+  EXPECT_TRUE(std::isnan(s.free_space_violation));
+}
+
+TEST(AlignmentSignals, VerifyAlignmentDecidesOnTheCloudsAndIsTimed) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  MacParams params;
+  params.evaluation.inlier_threshold = kTau;
+  MacResult result;
+  result.success = true;
+  result.status = RegistrationStatus::kSuccess;
+  result.verification.rival_ratio = 0.3;
+  result.T_target_source = shifted(1.0, 0.0, 0.0);
+  verifyAlignment(f, params, result);
+  EXPECT_EQ(result.status, RegistrationStatus::kUnverified);
+  EXPECT_TRUE(contains(result.message, "saw as empty")) << result.message;
+  EXPECT_DOUBLE_EQ(result.T_target_source.translation().x(), 1.0);  // the estimate, unverified
+  EXPECT_GT(result.times.verification_ms, 0.0);
+
+  result.T_target_source = Eigen::Isometry3d::Identity();
+  verifyAlignment(f, params, result);
+  EXPECT_TRUE(result.success) << result.message;
+
+  params.verification.enabled = false;  // off: the clouds are not looked at
+  result.T_target_source = shifted(1.0, 0.0, 0.0);
+  result.verification.free_space_violation = kNotMeasured;
+  verifyAlignment(f, params, result);
+  EXPECT_TRUE(result.success);
+  EXPECT_TRUE(std::isnan(result.verification.free_space_violation));
+}
+
+struct ShippedFragments {
+  PointCloud::Ptr fragment_0 = loadCloud(demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
+  PointCloud::Ptr fragment_4 = loadCloud(demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd"));
+  PointCloud::Ptr fragment_21 = loadCloud(testDataPath("redkitchen_21/cloud_bin_21.pcd"));
+};
+
+const ShippedFragments& fragments() {
+  static const ShippedFragments f;
+  return f;
+}
+
+// The indoor preset's values are the defaults.
+CloudRegistrationResult registerIndoor(const PointCloud& source, const PointCloud& target) {
+  return registerClouds(source, target, FeatureParams{}, MacParams{});
+}
+
+TEST(ShippedPairs, AWrongPoseIsRejectedAndKeptAsAnUnverifiedEstimate) {
+  // 3DLoMatch 21 -> 4 (11 % overlap, 0.2 % inliers): MAC's best hypothesis is far from the truth.
+  const CloudRegistrationResult r = registerIndoor(*fragments().fragment_21, *fragments().fragment_4);
+  const MacResult& m = r.registration;
+  EXPECT_FALSE(m.success);
+  ASSERT_EQ(m.status, RegistrationStatus::kUnverified) << m.message;
+  const Eigen::Isometry3d truth = readTransformFile(testDataPath("redkitchen_21/T_4_21_gt.txt"));
+  EXPECT_GT(rotationErrorDeg(m.T_target_source, truth), 15.0);  // it is indeed wrong
+  EXPECT_LT(m.confidence, 0.5);
+  EXPECT_TRUE(contains(m.message, "verification.min_confidence")) << m.message;
+  EXPECT_GT(m.verification.free_space_violation, 0.015) << m.message;
+  EXPECT_FALSE(m.alternatives.empty());
+}
+
+TEST(ShippedPairs, FragmentsThatDoNotOverlapAreRejected) {
+  // 21 and 0: 1.4 % overlap (gt_overlap.log), no right answer. Both ways round.
+  for (const bool forward : {true, false}) {
+    const CloudRegistrationResult r = forward
+                                          ? registerIndoor(*fragments().fragment_21, *fragments().fragment_0)
+                                          : registerIndoor(*fragments().fragment_0, *fragments().fragment_21);
+    EXPECT_FALSE(r.registration.success) << forward << ": " << r.registration.message;
+    EXPECT_LT(r.registration.confidence, 0.5) << forward;
+    EXPECT_FALSE(r.registration.message.empty());
+  }
+}
+
+TEST(ShippedPairs, AnOverlappingPairIsVerified) {
+  const CloudRegistrationResult r = registerIndoor(*fragments().fragment_4, *fragments().fragment_0);
+  const MacResult& m = r.registration;
+  ASSERT_TRUE(m.success) << m.message;
+  EXPECT_GT(m.confidence, 0.9);
+  EXPECT_GT(m.verification.aligned_overlap, 0.3);
+  EXPECT_LT(m.verification.free_space_violation, 0.015);
+  const Eigen::Isometry3d truth = readTransformFile(demoDataPath("redkitchen_4_0/T_target_source_gt.txt"));
+  EXPECT_LT(rotationErrorDeg(m.T_target_source, truth), 15.0);
+}
+
+}  // namespace
+}  // namespace mac_registration
