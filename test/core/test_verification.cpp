@@ -1,6 +1,5 @@
 // The verification stage on hand-made cases: a lone consensus, two equal consensus sets (ambiguous), a
 // dominant and a weak one, pure outliers; the evidence terms and the decision on hand-made signals.
-#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/verification.hpp"
 
 #include <gtest/gtest.h>
@@ -9,6 +8,7 @@
 #include <random>
 
 #include "mac_registration/core/mac_registration.hpp"
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "test_support.hpp"
 

@@ -1,15 +1,16 @@
 // The clouds' verification of an alignment: each signal on a hand-made room seen from inside, then end
 // to end on shipped 3DMatch fragments: a pair MAC gets wrong (21 -> 4) and a pair that does not overlap
 // (21 -> 0) must be rejected, a right pair (4 -> 0) kept.
-#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/features/cloud_verification.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
+#include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "mac_registration/core/verification.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 
 namespace mac_registration {
 namespace {

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <mutex>
 
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "mac_registration/ros/conversions.hpp"
 
