@@ -18,8 +18,9 @@ struct FeatureParams {
   double ratio_test = 0.0;  // Lowe's ratio in (0, 1), 0 = off: nearest / second nearest distance
   // Approximation of the descriptor search, >= 0, 0 = exact: the match found is at most (1 + epsilon)
   // times farther than the nearest descriptor (FLANN's kd-tree eps). 1 keeps 99.9 % of the exact matches
-  // on 3DMatch and KITTI scans and halves the search time on 19 000 lidar keypoints.
-  double match_epsilon = 1.0;
+  // on 3DMatch and KITTI scans and halves the search time on 19 000 lidar keypoints; exact by default, as
+  // the verification's min_confidence is calibrated on exact matches.
+  double match_epsilon = 0.0;
   int num_threads = 0;  // 0 = OpenMP default
   // d_cmp of the Gaussian compatibility score in resolution units (mean nearest-neighbour distance of
   // the given clouds), 0 = off: registerClouds then uses graph.gaussian_sigma [m] as given. The paper
