@@ -10,9 +10,9 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <limits>
+#include <memory>
 
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
@@ -73,6 +73,36 @@ class RegistrationServerTest : public ::testing::Test {
     return srv.response.result;
   }
 
+  // The transforms the node sends for `child_frame`, recorded from a /tf subscription that is connected
+  // before the test goes on: a one-shot transform sent earlier would go by unseen.
+  struct TfRecorder {
+    ros::Subscriber subscription;
+    std::shared_ptr<geometry_msgs::TransformStamped> latest =
+        std::make_shared<geometry_msgs::TransformStamped>();
+  };
+  TfRecorder recordTf(const std::string& child_frame) {
+    TfRecorder recorder;
+    auto latest = recorder.latest;
+    recorder.subscription = nh_.subscribe<tf2_msgs::TFMessage>(
+        "/tf", 100, [latest, child_frame](const tf2_msgs::TFMessageConstPtr& m) {
+          for (const auto& t : m->transforms) {
+            if (t.child_frame_id == child_frame) *latest = t;
+          }
+        });
+    waitForPublisher(recorder.subscription, "/tf");
+    return recorder;
+  }
+
+  static void waitForPublisher(const ros::Subscriber& subscription, const std::string& topic) {
+    for (int i = 0; i < 100 && subscription.getNumPublishers() == 0; ++i) ros::Duration(0.05).sleep();
+    ASSERT_GT(subscription.getNumPublishers(), 0u) << "nobody publishes " << topic;
+  }
+
+  static bool waitFor(const geometry_msgs::TransformStamped& tf) {
+    for (int i = 0; i < 100 && tf.child_frame_id.empty(); ++i) ros::Duration(0.05).sleep();
+    return !tf.child_frame_id.empty();
+  }
+
   ros::NodeHandle nh_;
 };
 
@@ -98,33 +128,23 @@ TEST_F(RegistrationServerTest, CorrespondencesTopicPublishesResultAndTf) {
       "/mac_registration/result", 10, [&](const mac_registration::RegistrationResultConstPtr& r) {
         if (r->child_frame_id == "topic_source") received = r;
       });
+  waitForPublisher(sub, "/mac_registration/result");
+  const TfRecorder sent = recordTf("topic_source");
   ros::Publisher pub = nh_.advertise<mac_registration::Correspondences>("/correspondences", 1, true);
-  tf2_ros::Buffer buffer;
-  tf2_ros::TransformListener listener(buffer);
   const auto msg = redkitchenCorrespondences("topic_target", "topic_source");
   pub.publish(msg);
   for (int i = 0; i < 300 && !received; ++i) ros::Duration(0.1).sleep();
   ASSERT_TRUE(received) << "no result on /mac_registration/result";
   ASSERT_TRUE(received->success) << received->message;
-  const auto tf =
-      buffer.lookupTransform("topic_target", "topic_source", received->header.stamp, ros::Duration(5.0));
-  EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(received->transform), 1e-6));
+  ASSERT_TRUE(waitFor(*sent.latest)) << "no transform on /tf";
+  EXPECT_EQ(sent.latest->header.frame_id, "topic_target");
+  EXPECT_TRUE(tf2::transformToEigen(*sent.latest).isApprox(toEigen(received->transform), 1e-6));
 }
 
 // A zero stamp would put the transform on tf at t = 0, older than any listener's cache: the node stamps the
 // result and its tf with the arrival time instead, and says so.
 TEST_F(RegistrationServerTest, AZeroStampIsReplacedByTheArrivalTime) {
-  // The transform is sent once: the test's own /tf subscription must be connected before the call, or the
-  // one message can go by before it is.
-  geometry_msgs::TransformStamped sent;
-  ros::Subscriber tf_sub =
-      nh_.subscribe<tf2_msgs::TFMessage>("/tf", 100, [&](const tf2_msgs::TFMessageConstPtr& m) {
-        for (const auto& t : m->transforms) {
-          if (t.child_frame_id == "zero_stamp_s") sent = t;
-        }
-      });
-  for (int i = 0; i < 100 && tf_sub.getNumPublishers() == 0; ++i) ros::Duration(0.05).sleep();
-  ASSERT_GT(tf_sub.getNumPublishers(), 0u) << "nobody publishes /tf";
+  const TfRecorder sent = recordTf("zero_stamp_s");
   const ros::Time before = ros::Time::now();
   mac_registration::RegisterCorrespondences srv;
   srv.request.correspondences = redkitchenCorrespondences("zero_stamp_t", "zero_stamp_s");
@@ -136,10 +156,10 @@ TEST_F(RegistrationServerTest, AZeroStampIsReplacedByTheArrivalTime) {
   bool said = false;
   for (const auto& w : result.warnings) said |= w.find("header.stamp is zero") != std::string::npos;
   EXPECT_TRUE(said);
-  for (int i = 0; i < 100 && sent.child_frame_id.empty(); ++i) ros::Duration(0.05).sleep();
-  ASSERT_EQ(sent.header.frame_id, "zero_stamp_t");
-  EXPECT_EQ(sent.header.stamp, result.header.stamp);
-  EXPECT_TRUE(tf2::transformToEigen(sent).isApprox(toEigen(result.transform), 1e-6));
+  ASSERT_TRUE(waitFor(*sent.latest)) << "no transform on /tf";
+  ASSERT_EQ(sent.latest->header.frame_id, "zero_stamp_t");
+  EXPECT_EQ(sent.latest->header.stamp, result.header.stamp);
+  EXPECT_TRUE(tf2::transformToEigen(*sent.latest).isApprox(toEigen(result.transform), 1e-6));
 }
 
 TEST_F(RegistrationServerTest, RegisterServiceAlignsARealScanPair) {
@@ -162,8 +182,9 @@ TEST_F(RegistrationServerTest, CloudTopicsPublishResultAlignedCloudAndTf) {
       "/mac_registration/aligned", 1, [&](const sensor_msgs::PointCloud2ConstPtr& c) { aligned = c; });
   ros::Publisher target_pub = nh_.advertise<sensor_msgs::PointCloud2>("/target", 1, true);
   ros::Publisher source_pub = nh_.advertise<sensor_msgs::PointCloud2>("/source", 1, true);
-  tf2_ros::Buffer buffer;
-  tf2_ros::TransformListener listener(buffer);
+  waitForPublisher(result_sub, "/mac_registration/result");
+  waitForPublisher(aligned_sub, "/mac_registration/aligned");
+  const TfRecorder sent = recordTf("cloud_topic_source");
   target_pub.publish(redkitchenCloud("target_cloud_bin_0.pcd", "cloud_topic_target"));
   ros::Duration(1.0).sleep();  // the target must be there before the source
   const auto source = redkitchenCloud("source_cloud_bin_4.pcd", "cloud_topic_source");
@@ -174,9 +195,9 @@ TEST_F(RegistrationServerTest, CloudTopicsPublishResultAlignedCloudAndTf) {
   ASSERT_TRUE(aligned) << "nothing on /mac_registration/aligned";
   EXPECT_EQ(aligned->header.frame_id, "cloud_topic_target");
   EXPECT_EQ(std::size_t(aligned->width) * aligned->height, std::size_t(source.width) * source.height);
-  const auto tf = buffer.lookupTransform("cloud_topic_target", "cloud_topic_source", received->header.stamp,
-                                         ros::Duration(5.0));
-  EXPECT_TRUE(tf2::transformToEigen(tf).isApprox(toEigen(received->transform), 1e-6));
+  ASSERT_TRUE(waitFor(*sent.latest)) << "no transform on /tf";
+  EXPECT_EQ(sent.latest->header.frame_id, "cloud_topic_target");
+  EXPECT_TRUE(tf2::transformToEigen(*sent.latest).isApprox(toEigen(received->transform), 1e-6));
 }
 
 TEST_F(RegistrationServerTest, BadCloudsFailWithAReasonAndTheNodeStaysUp) {
