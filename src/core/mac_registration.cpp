@@ -317,10 +317,7 @@ MacResult registerCorrespondences(const CorrespondenceSet& correspondences, cons
   } catch (const std::exception& e) {
     fail(result, RegistrationStatus::kInternalError, e.what());
   }
-  if (!result.success && result.status != RegistrationStatus::kTooFewInliers &&
-      result.status != RegistrationStatus::kUnverified) {
-    result.T_target_source = Eigen::Isometry3d::Identity();
-  }
+  if (!hasEstimate(result)) result.T_target_source = Eigen::Isometry3d::Identity();
   result.times.total_ms = millisecondsSince(start);
   return result;
 }

@@ -279,8 +279,7 @@ void fillResultMsg(const MacResult& r, mac_registration::RegistrationResult& msg
 
 void fillVerification(const MacResult& r, mac_registration::RegistrationResult& msg) {
   msg.confidence = r.confidence;
-  msg.has_estimate = r.success || r.status == RegistrationStatus::kUnverified ||
-                     r.status == RegistrationStatus::kTooFewInliers;
+  msg.has_estimate = hasEstimate(r);
   msg.estimate = toTransformMsg(msg.has_estimate ? r.T_target_source : Eigen::Isometry3d::Identity());
   const VerificationSignals& s = r.verification;
   msg.rival_ratio = s.rival_ratio;

@@ -31,8 +31,7 @@ MethodOutcome outcomeOf(const std::string& method, const MacResult& result, cons
   m.registered = result.success;
   m.status = toString(result.status);
   // kTooFewInliers and kUnverified still carry the best transform: its error is worth a look in the CSV.
-  if (result.success || result.status == RegistrationStatus::kTooFewInliers ||
-      result.status == RegistrationStatus::kUnverified) {
+  if (hasEstimate(result)) {
     m.rotation_error_deg = rotationErrorDeg(result.T_target_source, truth);
     m.translation_error = translationError(result.T_target_source, truth);
   }

@@ -112,4 +112,11 @@ struct MacResult {
   std::vector<PoseAlternative> alternatives;
 };
 
+// Whether T_target_source holds a transform the registration found: on success, and on the failures that
+// still carry their best estimate (too few inliers, unverified). Otherwise it is the identity.
+inline bool hasEstimate(const MacResult& result) {
+  return result.success || result.status == RegistrationStatus::kTooFewInliers ||
+         result.status == RegistrationStatus::kUnverified;
+}
+
 }  // namespace mac_registration
