@@ -20,11 +20,72 @@ double cliqueWeight(const CompatibilityGraph& graph, const int* nodes, std::size
   return weight;
 }
 
+CliqueWeightCache::CliqueWeightCache(const CompatibilityGraph& graph, int capacity)
+    : graph_(graph),
+      capacity_(std::max(capacity, 1)),
+      local_of_node_(graph.num_nodes, -1),
+      matrix_(static_cast<std::size_t>(capacity_) * capacity_, 0.0f) {
+  node_of_local_.reserve(capacity_);
+}
+
+void CliqueWeightCache::clear() {
+  for (int node : node_of_local_) local_of_node_[node] = -1;
+  node_of_local_.clear();
+}
+
+// Only the entries between the new node and the nodes already in the matrix are written. The others may
+// hold weights from before a clear(), but a clique reads only pairs of its own nodes, which are all edges,
+// and each edge's two entries were written when the later of its nodes came in.
+int CliqueWeightCache::add(int node) {
+  const int local = static_cast<int>(node_of_local_.size());
+  local_of_node_[node] = local;
+  node_of_local_.push_back(node);
+  const auto begin = graph_.neighbours.begin() + graph_.offsets[node];
+  const auto end = graph_.neighbours.begin() + graph_.offsets[node + 1];
+  const auto set = [&](int other, float weight) {
+    matrix_[static_cast<std::size_t>(local) * capacity_ + other] = weight;
+    matrix_[static_cast<std::size_t>(other) * capacity_ + local] = weight;
+  };
+  // A hub's list is longer than the matrix: look the matrix's nodes up in it instead of walking it.
+  if (end - begin > 8 * static_cast<std::ptrdiff_t>(local)) {
+    for (int other = 0; other < local; ++other) {
+      const auto it = std::lower_bound(begin, end, node_of_local_[other]);
+      if (it != end && *it == node_of_local_[other])
+        set(other, graph_.weights[it - graph_.neighbours.begin()]);
+    }
+  } else {
+    for (auto it = begin; it != end; ++it) {
+      const int other = local_of_node_[*it];
+      if (other >= 0 && other != local) set(other, graph_.weights[it - graph_.neighbours.begin()]);
+    }
+  }
+  return local;
+}
+
+double CliqueWeightCache::weight(const int* nodes, std::size_t size) {
+  if (size > static_cast<std::size_t>(capacity_)) return cliqueWeight(graph_, nodes, size);
+  std::size_t fresh = 0;
+  for (std::size_t k = 0; k < size; ++k) fresh += local_of_node_[nodes[k]] < 0;
+  if (node_of_local_.size() + fresh > static_cast<std::size_t>(capacity_)) clear();
+  clique_locals_.resize(size);
+  for (std::size_t k = 0; k < size; ++k) {
+    const int local = local_of_node_[nodes[k]];
+    clique_locals_[k] = local >= 0 ? local : add(nodes[k]);
+  }
+  // The pairs in cliqueWeight's order, each float added to the double sum: the same rounding.
+  double weight = 0.0;
+  for (std::size_t a = 0; a + 1 < size; ++a) {
+    const float* row = &matrix_[static_cast<std::size_t>(clique_locals_[a]) * capacity_];
+    for (std::size_t b = a + 1; b < size; ++b) weight += row[clique_locals_[b]];
+  }
+  return weight;
+}
+
 NodeGuidedSelector::NodeGuidedSelector(const CompatibilityGraph& graph)
-    : graph_(graph), slot_of_node_(graph.num_nodes, -1), weight_of_node_(graph.num_nodes, 0.0) {}
+    : weights_(graph), slot_of_node_(graph.num_nodes, -1), weight_of_node_(graph.num_nodes, 0.0) {}
 
 void NodeGuidedSelector::offer(const int* nodes, std::size_t size) {
-  const double weight = cliqueWeight(graph_, nodes, size);
+  const double weight = weights_.weight(nodes, size);
   int slot = -1;
   for (std::size_t k = 0; k < size; ++k) {
     const int node = nodes[k];

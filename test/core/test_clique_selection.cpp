@@ -2,9 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <random>
 #include <set>
 #include <vector>
 
+#include "mac_registration/core/clique_search.hpp"
 #include "mac_registration/core/clique_selection.hpp"
 
 namespace mac_registration {
@@ -87,6 +90,93 @@ TEST(NodeGuidedSelector, ReplacedCliqueIsDroppedAndItsSlotReused) {
 }
 
 TEST(NodeGuidedSelector, NothingOffered) { EXPECT_TRUE(select(handGraph(), {}).empty()); }
+
+// Random graphs: node 0 is a hub joined to every other node (its list is longer than a small cache, so
+// the cache looks the cached nodes up in it), the others are joined with probability `density`. Weights
+// either from {0.5, 1, 1.5, 2} (exact sums, so that different cliques often weigh the same) or uniform in
+// (0, 1].
+CompatibilityGraph randomGraph(int n, double density, bool tied_weights, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::vector<std::vector<UpperEdge>> rows(n);
+  for (int a = 0; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      if (a != 0 && uniform(rng) >= density) continue;
+      const float weight = tied_weights ? 0.5f * float(1 + rng() % 4) : float(1.0 - uniform(rng));
+      rows[a].push_back({b, weight});
+    }
+  }
+  return graphFromUpperRows(n, rows);
+}
+
+std::vector<Nodes> allMaximalCliques(const CompatibilityGraph& g) {
+  std::vector<Nodes> cliques;
+  CliqueSearchParams params;
+  params.max_degeneracy = 0;
+  params.max_pruning_rounds = 0;
+  const CliqueSearchStats stats = searchMaximalCliques(
+      g, params, [&](const int* nodes, std::size_t size) { cliques.emplace_back(nodes, nodes + size); });
+  EXPECT_TRUE(stats.complete);
+  return cliques;
+}
+
+// The selection spelled out: every clique's weight by cliqueWeight, each node keeping the first of its
+// heaviest cliques in the order given, the distinct kept cliques in the order of their lowest keeping node.
+std::vector<SelectedClique> perNodeHeaviest(const CompatibilityGraph& g, const std::vector<Nodes>& cliques,
+                                            int& ties) {
+  std::vector<double> weight(cliques.size());
+  for (std::size_t k = 0; k < cliques.size(); ++k) weight[k] = weightOf(g, cliques[k]);
+  std::vector<int> kept(g.num_nodes, -1);
+  for (std::size_t k = 0; k < cliques.size(); ++k) {
+    for (int node : cliques[k]) {
+      if (kept[node] != -1 && weight[k] == weight[kept[node]]) ++ties;
+      if (kept[node] == -1 || weight[k] > weight[kept[node]]) kept[node] = static_cast<int>(k);
+    }
+  }
+  std::vector<SelectedClique> out;
+  std::set<int> emitted;
+  for (int k : kept) {
+    if (k == -1 || !emitted.insert(k).second) continue;
+    out.push_back({cliques[k], weight[k]});
+  }
+  return out;
+}
+
+TEST(CliqueWeightCache, BitIdenticalToCliqueWeight) {
+  for (std::uint32_t seed = 1; seed <= 30; ++seed) {
+    for (double density : {0.1, 0.3, 0.6}) {
+      const CompatibilityGraph g = randomGraph(60, density, seed % 2 == 0, seed);
+      const std::vector<Nodes> cliques = allMaximalCliques(g);
+      ASSERT_FALSE(cliques.empty());
+      for (int capacity : {3, 8, 256}) {  // 3 and 8: cliques larger than the matrix, and frequent clears
+        CliqueWeightCache cache(g, capacity);
+        for (const Nodes& clique : cliques) {
+          ASSERT_EQ(cache.weight(clique.data(), clique.size()), weightOf(g, clique))
+              << "seed " << seed << ", density " << density << ", capacity " << capacity;
+        }
+      }
+    }
+  }
+}
+
+TEST(NodeGuidedSelector, MatchesThePerNodeHeaviestOfAllMaximalCliques) {
+  int ties = 0, cases = 0;
+  for (std::uint32_t seed = 1; seed <= 60; ++seed) {
+    for (double density : {0.05, 0.2, 0.4, 0.7}) {
+      for (bool tied_weights : {true, false}) {
+        const CompatibilityGraph g = randomGraph(40, density, tied_weights, seed);
+        const std::vector<Nodes> cliques = allMaximalCliques(g);
+        const std::vector<SelectedClique> expected = perNodeHeaviest(g, cliques, ties);
+        const std::vector<SelectedClique> selected = select(g, cliques);
+        ASSERT_EQ(nodesOf(selected), nodesOf(expected)) << "seed " << seed << ", density " << density;
+        for (std::size_t k = 0; k < selected.size(); ++k) ASSERT_EQ(selected[k].weight, expected[k].weight);
+        ++cases;
+      }
+    }
+  }
+  EXPECT_EQ(cases, 480);
+  EXPECT_GT(ties, 100) << "the tied weights should make equal-weight cliques meet at a node";
+}
 
 // Normals: pair (0,3) has source sine 0 but target sine 0.5 (30 deg); pair (2,3) has source sine 1 but
 // target sine sin(60 deg) = 0.866; every other pair has sine 1 on both sides. Node 1's target normal is
