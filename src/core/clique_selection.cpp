@@ -46,7 +46,7 @@ int CliqueWeightCache::add(int node) {
     matrix_[static_cast<std::size_t>(local) * capacity_ + other] = weight;
     matrix_[static_cast<std::size_t>(other) * capacity_ + local] = weight;
   };
-  // A hub's list is longer than the matrix: look the matrix's nodes up in it instead of walking it.
+  // A hub's list may be many times longer than the matrix is full: look the cached nodes up in it instead.
   if (end - begin > 8 * static_cast<std::ptrdiff_t>(local)) {
     for (int other = 0; other < local; ++other) {
       const auto it = std::lower_bound(begin, end, node_of_local_[other]);
