@@ -48,6 +48,9 @@ def parse_arguments():
     parser.add_argument("--preset", default=os.path.join(PACKAGE, "config", "outdoor_lidar.yaml"))
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="a private parameter of the node after the preset, e.g. features/voxel_size=0.5")
+    parser.add_argument("--watch-outputs", action="store_true",
+                        help="subscribe to ~aligned and ~correspondence_markers too (the node builds them only "
+                             "for a subscriber)")
     parser.add_argument("--json", help="also write the report there")
     return parser.parse_args()
 
@@ -137,6 +140,13 @@ class Stream:
         self.diagnostics = []  # (wall time, {key: value})
         rospy.Subscriber(NODE + "/result", RegistrationResult, self.on_result, queue_size=100)
         rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=10)
+        self.outputs_seen = {"aligned": 0, "correspondence_markers": 0}
+        if args.watch_outputs:
+            from visualization_msgs.msg import MarkerArray
+
+            rospy.Subscriber(NODE + "/aligned", PointCloud2, self.count_output, "aligned", queue_size=2)
+            rospy.Subscriber(NODE + "/correspondence_markers", MarkerArray, self.count_output,
+                             "correspondence_markers", queue_size=2)
         self.source_pub = rospy.Publisher(SOURCE_TOPIC, PointCloud2, queue_size=2)
         self.target_pub = rospy.Publisher(TARGET_TOPIC, PointCloud2, queue_size=1, latch=True)
         reference = read_reference(args.reference)
@@ -156,6 +166,10 @@ class Stream:
         now = time.time()
         with self.lock:
             self.results.setdefault(msg.header.stamp.to_nsec(), (msg, now))
+
+    def count_output(self, _, name):
+        with self.lock:
+            self.outputs_seen[name] += 1
 
     def on_diagnostics(self, msg):
         for status in msg.status:
@@ -275,6 +289,7 @@ class Stream:
             "stage_mean_ms": {s: sum(v) / len(v) if v else None for s, v in stage_ms.items()},
             "stage_p50_ms": {s: percentiles(v).get("p50_ms") for s, v in stage_ms.items()},
             "diagnostics_last": after,
+            "outputs_seen": dict(self.outputs_seen) if self.args.watch_outputs else None,
         })
 
 
@@ -304,6 +319,8 @@ def print_report(r):
         describe_latency(r["latency"]), "%.2f" % r["manager_cores_busy"] if "manager_cores_busy" in r else "?"))
     print("  stage means [ms] (~result): " + ", ".join(
         "%s %.1f" % (s, v) for s, v in r["stage_mean_ms"].items() if v is not None))
+    if r["outputs_seen"] is not None:
+        print("  outputs watched: %s" % ", ".join("%d on ~%s" % (n, name) for name, n in r["outputs_seen"].items()))
     print("  /diagnostics at the end: " + "; ".join("%s: %s" % kv for kv in r["diagnostics_last"].items()))
     if r["manager_exit_code"] is not None:
         print("  the nodelet manager exited with %s" % r["manager_exit_code"])

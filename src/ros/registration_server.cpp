@@ -423,7 +423,7 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
     }
   }
   if (target_described) {
-    const CloudRegistrationResult result =
+    CloudRegistrationResult result =
         registerCloudToDescribed(*source_cloud.cloud, *target_described, cfg.features, cfg.mac, &stop_);
     fillFrontEndStats(result.features.stats, outcome.msg);
     const FrontEndStats& stats = result.features.stats;
@@ -442,8 +442,9 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
                                      " points with NaN/Inf coordinates");
     }
     outcome.source_cloud = source_cloud.cloud;
-    outcome.correspondences = result.features.correspondences;
-    outcome.inliers = result.registration.inlier_indices;
+    // Moved, not copied: the result is not needed beyond this.
+    outcome.correspondences = std::move(result.features.correspondences);
+    outcome.inliers = std::move(result.registration.inlier_indices);
     outcome.T_target_source = result.registration.T_target_source;
   }
   outcome.msg.header.frame_id = target->header.frame_id;
