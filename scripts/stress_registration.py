@@ -13,17 +13,13 @@ Exit status: 0 when nothing crashed and every input got its expected answer, 1 o
 import argparse
 import json
 import os
-import subprocess
 import sys
 import threading
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-PACKAGE = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(PACKAGE, "test", "ros"))
+from nodelet_harness import NODE, PACKAGE, Processes, percentiles
 
-NODE = "/mac_registration"
-MANAGER = "mac_registration_manager"
+sys.path.insert(0, os.path.join(PACKAGE, "test", "ros"))
 
 
 def parse_arguments():
@@ -37,66 +33,6 @@ def parse_arguments():
     parser.add_argument("--preset", default=os.path.join(PACKAGE, "config", "indoor_rgbd.yaml"))
     parser.add_argument("--json", help="also write the report there")
     return parser.parse_args()
-
-
-class Processes:
-    """roscore, the nodelet manager and the nodelet loader, started and stopped by this run only."""
-
-    def __init__(self, port, preset):
-        self.env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port, ROS_HOSTNAME="localhost")
-        self.started = []
-        self.port = port
-        self.preset = preset
-
-    def start(self, *command):
-        process = subprocess.Popen(command, env=self.env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-        self.started.append(process)
-        return process
-
-    def bring_up(self):
-        import rosgraph
-
-        os.environ.update(self.env)
-        master = rosgraph.Master("/stress_registration")
-        if master.is_online():
-            sys.exit("stress_registration: a ROS master already runs on port %d; pick another --port" % self.port)
-        self.core = self.start("roscore", "-p", str(self.port))
-        for _ in range(300):
-            if master.is_online():
-                break
-            time.sleep(0.1)
-        else:
-            sys.exit("stress_registration: roscore did not start on port %d" % self.port)
-        for config in (self.preset, os.path.join(PACKAGE, "config", "registration_node.yaml")):
-            subprocess.run(["rosparam", "load", config, NODE], env=self.env, check=True)
-        self.manager = self.start("rosrun", "nodelet", "nodelet", "manager", "__name:=" + MANAGER)
-        self.loader = self.start("rosrun", "nodelet", "nodelet", "load", "mac_registration/RegistrationNodelet",
-                                 MANAGER, "--no-bond", "__name:=" + NODE.strip("/"))
-
-    def manager_status(self):
-        """None while the manager runs, else its exit code (negative: killed by that signal)."""
-        return self.manager.poll()
-
-    def stop(self):
-        for process in reversed(self.started):
-            if process.poll() is None:
-                process.send_signal(subprocess.signal.SIGINT)
-                try:
-                    process.wait(timeout=15)
-                except subprocess.TimeoutExpired:
-                    process.kill()
-                    process.wait()
-
-
-def percentiles(values):
-    if not values:
-        return {"n": 0}
-    ordered = sorted(values)
-
-    def at(q):
-        return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-    return {"n": len(ordered), "p50_ms": at(0.5), "p90_ms": at(0.9), "max_ms": ordered[-1]}
 
 
 class Run:
@@ -360,7 +296,7 @@ def print_report(r):
 
 def main():
     args = parse_arguments()
-    processes = Processes(args.port, args.preset)
+    processes = Processes(args.port, args.preset, name="stress_registration")
     try:
         processes.bring_up()
         import rospy

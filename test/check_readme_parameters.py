@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """The README's parameter table must agree with the presets: every row's key exists in both presets and its
-indoor/outdoor defaults are the presets' values. Exits non-zero, naming each disagreement; with
+indoor/outdoor defaults are the presets' values. The Luminar preset has the outdoor one's keys, and the
+README's sentence on it names every value where the two differ. Exits non-zero, naming each disagreement; with
 --xunit PATH it also writes the outcome as a JUnit report (what catkin_test_results reads)."""
 import argparse
 import os
+import re
 import sys
 from xml.sax.saxutils import escape
 
@@ -31,6 +33,33 @@ def same(text, actual):
         except ValueError:
             return False
     return text == str(actual)
+
+
+def flattened(config, prefix=""):
+    items = {}
+    for key, value in config.items():
+        if isinstance(value, dict):
+            items.update(flattened(value, prefix + key + "."))
+        else:
+            items[prefix + key] = value
+    return items
+
+
+def luminar_problems(readme, outdoor):
+    """The Luminar preset against the outdoor one and the README's sentence on it."""
+    luminar, outdoor = flattened(preset("luminar_lidar.yaml")), flattened(outdoor)
+    problems = ["%s: in the outdoor preset, not in the Luminar one" % k for k in sorted(set(outdoor) - set(luminar))]
+    problems += ["%s: in the Luminar preset, not in the outdoor one" % k for k in sorted(set(luminar) - set(outdoor))]
+    sentence = next((line for line in readme.split("\n\n") if line.startswith("`config/luminar_lidar.yaml`")), "")
+    named = dict(re.findall(r"`([a-z_]+\.[a-z_]+)` ([0-9.]+)", sentence))
+    for key in sorted(set(luminar) & set(outdoor)):
+        if luminar[key] != outdoor[key] and key not in named:
+            problems.append("%s: the Luminar preset has %r (outdoor %r), the README does not say" %
+                            (key, luminar[key], outdoor[key]))
+    for key, text in named.items():
+        if key not in luminar or not same(text, luminar[key]):
+            problems.append("%s: README says %s for the Luminar preset, it has %r" % (key, text, luminar.get(key)))
+    return problems
 
 
 def write_xunit(path, problems):
@@ -69,6 +98,7 @@ def main():
                 problems.append("%s: README says %s for %s, the preset has %r" % (key, cells[column], name, actual))
     if not rows:
         problems.append("no parameter rows found under '## Parameters'")
+    problems += luminar_problems(section, presets["outdoor"])
     for p in problems:
         print("README parameter table:", p)
     if args.xunit:

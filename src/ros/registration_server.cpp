@@ -2,6 +2,7 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <algorithm>
 #include <chrono>
 #include <iomanip>
 #include <sstream>
@@ -54,6 +55,31 @@ bool sameReconfigurable(const ServerConfig& a, const ServerConfig& b) {
   return true;
 }
 
+// How many of the latest topic registrations /diagnostics averages its times over: 10 s of a 10 Hz lidar.
+constexpr std::size_t kTimedResults = 100;
+
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The given quantile (nearest rank) of the values; 0 for none.
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  const auto rank = std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()));
+  std::nth_element(values.begin(), values.begin() + rank, values.end());
+  return values[rank];
+}
+
+// A cached description serves these parameters too: the descriptors depend only on the voxel size and
+// radii (describedWith), but a resolution is estimated only when some parameter uses it.
+bool describedFor(const DescribedCloud& cloud, const FeatureParams& params) {
+  if (!describedWith(cloud, params)) return false;
+  if (!resolutionNeeded(params)) return true;
+  return resolutionNeeded(cloud.params) && cloud.params.resolution_samples == params.resolution_samples;
+}
+
 std::string stampText(const ros::Time& stamp) {
   std::ostringstream text;
   text << "t = " << stamp.sec << "." << std::setw(9) << std::setfill('0') << stamp.nsec << " s";
@@ -61,6 +87,34 @@ std::string stampText(const ros::Time& stamp) {
 }
 
 }  // namespace
+
+// The latency quantiles and the mean time of each stage over the latest topic registrations.
+void RegistrationServer::reportRecentTimes(const std::deque<StageTimes>& recent,
+                                           diagnostic_updater::DiagnosticStatusWrapper& status) {
+  status.add("timed results", recent.size());
+  std::vector<double> latency;
+  StageTimes sum;
+  for (const StageTimes& t : recent) {
+    latency.push_back(t.latency);
+    sum.conversion += t.conversion;
+    sum.target_description += t.target_description;
+    sum.source_description += t.source_description;
+    sum.matching += t.matching;
+    sum.core += t.core;
+    sum.verification += t.verification;
+    sum.publication += t.publication;
+  }
+  const double n = std::max<std::size_t>(1, recent.size());
+  status.addf("latency p50 [ms]", "%.1f", quantile(latency, 0.5));
+  status.addf("latency p95 [ms]", "%.1f", quantile(latency, 0.95));
+  status.addf("mean conversion [ms]", "%.1f", sum.conversion / n);
+  status.addf("mean target description [ms]", "%.1f", sum.target_description / n);
+  status.addf("mean source description [ms]", "%.1f", sum.source_description / n);
+  status.addf("mean matching [ms]", "%.1f", sum.matching / n);
+  status.addf("mean core [ms]", "%.1f", sum.core / n);
+  status.addf("mean verification [ms]", "%.1f", sum.verification / n);
+  status.addf("mean publication [ms]", "%.1f", sum.publication / n);
+}
 
 RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : nh_(nh), private_nh_(private_nh), tf_listener_(tf_buffer_), diagnostics_(nh, private_nh) {
@@ -197,6 +251,10 @@ void RegistrationServer::onReconfigure(MacRegistrationConfig& c, std::uint32_t) 
 }
 
 void RegistrationServer::onSource(const sensor_msgs::PointCloud2ConstPtr& source) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++inputs_received_;
+  }
   sensor_msgs::PointCloud2ConstPtr target;
   {
     std::lock_guard<std::mutex> lock(target_mutex_);
@@ -211,6 +269,10 @@ void RegistrationServer::onSource(const sensor_msgs::PointCloud2ConstPtr& source
 
 void RegistrationServer::onSynchronized(const sensor_msgs::PointCloud2ConstPtr& source,
                                         const sensor_msgs::PointCloud2ConstPtr& target) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++inputs_received_;
+  }
   jobs_.put(Job{source, target, nullptr, ros::Time::now()});
 }
 
@@ -220,21 +282,26 @@ void RegistrationServer::onTarget(const sensor_msgs::PointCloud2ConstPtr& target
 }
 
 void RegistrationServer::onCorrespondences(const mac_registration::CorrespondencesConstPtr& correspondences) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++inputs_received_;
+  }
   jobs_.put(Job{nullptr, nullptr, correspondences, ros::Time::now()});
 }
 
 bool RegistrationServer::onRegister(Register::Request& request, Register::Response& response) {
   const ros::Time received = ros::Time::now();
   sensor_msgs::PointCloud2ConstPtr target;
-  if (std::size_t(request.target.width) * request.target.height > 0) {
-    target = boost::make_shared<sensor_msgs::PointCloud2>(request.target);
+  const bool own_target = std::size_t(request.target.width) * request.target.height > 0;
+  if (own_target) {
+    target = boost::make_shared<sensor_msgs::PointCloud2>(std::move(request.target));
   } else {
     std::lock_guard<std::mutex> lock(target_mutex_);
     target = latest_target_;
   }
   Outcome outcome;
   if (target) {
-    outcome = registerClouds(request.source, target, received);
+    outcome = registerClouds(request.source, target, received, !own_target);
   } else {
     outcome = missingTarget(request.source, "the request's target is empty and no target was received on ",
                             received);
@@ -262,9 +329,14 @@ void RegistrationServer::workerLoop() {
       } else if (!job->target) {
         outcome = missingTarget(*job->source, "no target cloud received yet on ", job->received);
       } else {
-        outcome = registerClouds(*job->source, job->target, job->received);
+        outcome = registerClouds(*job->source, job->target, job->received, true);
       }
+      const auto publishing = Clock::now();
       publish(outcome);
+      outcome.times.publication = millisecondsSince(publishing);
+      const ros::Time stamp = outcome.msg.header.stamp;  // the input's, or its arrival when zero
+      outcome.times.latency = (ros::Time::now() - stamp).toSec() * 1000.0;
+      recordTimes(outcome.times);
     } catch (const std::exception& e) {
       // Never let one bad message end the worker (or the nodelet manager with it).
       ROS_ERROR_STREAM("mac_registration: registration failed unexpectedly: " << e.what());
@@ -297,49 +369,72 @@ void RegistrationServer::stampResult(const ros::Time& input_stamp, const ros::Ti
   }
 }
 
-std::shared_ptr<const DescribedCloud> RegistrationServer::describedTarget(
-    const sensor_msgs::PointCloud2ConstPtr& target, const FeatureParams& params, std::size_t& dropped) {
-  {
-    std::lock_guard<std::mutex> lock(target_cache_mutex_);
-    const auto& cached = target_cache_;
-    if (cached.message == target && cached.described && describedWith(*cached.described, params)) {
-      dropped = cached.dropped;
-      return cached.described;
-    }
-  }
-  const CloudConversion cloud = toPointCloud(*target);
+std::shared_ptr<const DescribedCloud> RegistrationServer::describeTarget(
+    const sensor_msgs::PointCloud2& target, const FeatureParams& params, std::size_t& dropped) {
+  const auto start = Clock::now();
+  const CloudConversion cloud = toPointCloud(target);
   if (!cloud.error.empty()) throw std::invalid_argument("target cloud: " + cloud.error);
-  auto described = std::make_shared<DescribedCloud>(describeCloud(*cloud.cloud, params, "target"));
+  auto described = std::make_shared<const DescribedCloud>(describeCloud(*cloud.cloud, params, "target"));
   dropped = cloud.dropped_non_finite;
-  // Later registrations against the same target spend no time on it: the cached copy says so.
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++target_descriptions_;
+  last_target_description_ms_ = millisecondsSince(start);
+  return described;
+}
+
+std::shared_ptr<const DescribedCloud> RegistrationServer::describedTarget(
+    const sensor_msgs::PointCloud2ConstPtr& target, const FeatureParams& params, std::size_t& dropped,
+    bool cache) {
+  if (!cache) return describeTarget(*target, params, dropped);
+  std::lock_guard<std::mutex> lock(target_cache_mutex_);
+  const auto& cached = target_cache_;
+  if (cached.message == target && cached.described && describedFor(*cached.described, params)) {
+    dropped = cached.dropped;
+    return cached.described;
+  }
+  auto described = describeTarget(*target, params, dropped);
+  // Later registrations against the same target spend no time on it: the cached copy says so. It shares
+  // the keypoints and descriptors (pointers), so this copies no points.
   auto reused = std::make_shared<DescribedCloud>(*described);
   reused->resolution_ms = reused->downsample_ms = reused->normals_ms = reused->features_ms = 0.0;
-  std::lock_guard<std::mutex> lock(target_cache_mutex_);
   target_cache_ = {target, reused, dropped};
   return described;
 }
 
 RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs::PointCloud2& source,
                                                                const sensor_msgs::PointCloud2ConstPtr& target,
-                                                               const ros::Time& received) {
+                                                               const ros::Time& received, bool cache_target) {
   const ServerConfig cfg = config();
   Outcome outcome;
+  auto start = Clock::now();
   const CloudConversion source_cloud = toPointCloud(source);
+  outcome.times.conversion = millisecondsSince(start);
   std::size_t target_dropped = 0;
   std::shared_ptr<const DescribedCloud> target_described;
   if (!source_cloud.error.empty()) {
     outcome.msg = invalidInput("source cloud: " + source_cloud.error);
   } else {
     try {
-      target_described = describedTarget(target, cfg.features, target_dropped);
+      start = Clock::now();
+      target_described = describedTarget(target, cfg.features, target_dropped, cache_target);
+      outcome.times.target_description = millisecondsSince(start);
     } catch (const std::invalid_argument& e) {
       outcome.msg = invalidInput(e.what());
     }
   }
   if (target_described) {
-    const CloudRegistrationResult result =
+    CloudRegistrationResult result =
         registerCloudToDescribed(*source_cloud.cloud, *target_described, cfg.features, cfg.mac, &stop_);
     fillFrontEndStats(result.features.stats, outcome.msg);
+    const FrontEndStats& stats = result.features.stats;
+    const DescribedCloud& t = *target_described;
+    // The stats add the target's own times (0 once cached) to the source's.
+    outcome.times.source_description = stats.resolution_ms + stats.downsample_ms + stats.normals_ms +
+                                       stats.features_ms -
+                                       (t.resolution_ms + t.downsample_ms + t.normals_ms + t.features_ms);
+    outcome.times.matching = stats.matching_ms;
+    outcome.times.verification = result.registration.times.verification_ms;
+    outcome.times.core = result.registration.times.total_ms - result.registration.times.verification_ms;
     fillResultMsg(result.registration, outcome.msg);
     outcome.msg.dropped_points = source_cloud.dropped_non_finite + target_dropped;
     if (outcome.msg.dropped_points > 0) {
@@ -347,8 +442,9 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
                                      " points with NaN/Inf coordinates");
     }
     outcome.source_cloud = source_cloud.cloud;
-    outcome.correspondences = result.features.correspondences;
-    outcome.inliers = result.registration.inlier_indices;
+    // Moved, not copied: the result is not needed beyond this.
+    outcome.correspondences = std::move(result.features.correspondences);
+    outcome.inliers = std::move(result.registration.inlier_indices);
     outcome.T_target_source = result.registration.T_target_source;
   }
   outcome.msg.header.frame_id = target->header.frame_id;
@@ -484,6 +580,16 @@ void RegistrationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatusW
   status.add("inputs dropped (worker busy)", jobs_.dropped());
   status.add("last inliers", last_result_.inliers);
   status.add("last total time [ms]", last_result_.time_total_ms);
+  status.add("inputs received", inputs_received_);
+  status.add("target descriptions", target_descriptions_);
+  status.add("last target description [ms]", last_target_description_ms_);
+  reportRecentTimes(recent_times_, status);
+}
+
+void RegistrationServer::recordTimes(const StageTimes& times) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  recent_times_.push_back(times);
+  if (recent_times_.size() > kTimedResults) recent_times_.pop_front();
 }
 
 }  // namespace mac_registration

@@ -2,6 +2,8 @@
 
 #include <geometry_msgs/Point.h>
 
+#include <utility>
+
 namespace mac_registration {
 namespace {
 
@@ -52,7 +54,7 @@ visualization_msgs::MarkerArray correspondenceMarkers(const CorrespondenceSet& c
   // An empty LINE_LIST is refused by rviz; DELETE clears the previous lines instead.
   for (auto* m : {&inlier_lines, &outlier_lines}) {
     if (m->points.empty()) m->action = visualization_msgs::Marker::DELETE;
-    array.markers.push_back(*m);
+    array.markers.push_back(std::move(*m));
   }
   return array;
 }

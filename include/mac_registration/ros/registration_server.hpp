@@ -21,6 +21,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -54,6 +55,17 @@ class RegistrationServer {
     mac_registration::CorrespondencesConstPtr correspondences;
     ros::Time received;  // stands in for a zero header.stamp
   };
+  // Where the time of one registration went [ms]: what /diagnostics averages over the latest results.
+  struct StageTimes {
+    double conversion = 0.0;          // PointCloud2 -> finite PCL cloud (the source)
+    double target_description = 0.0;  // conversion and description of the target; 0 when cached
+    double source_description = 0.0;  // voxel grid, normals, FPFH of the source
+    double matching = 0.0;            // descriptor search
+    double core = 0.0;                // graph, cliques, hypotheses, refinement
+    double verification = 0.0;
+    double publication = 0.0;  // ~result, tf, and ~aligned / markers when subscribed
+    double latency = 0.0;      // the input's stamp (its arrival when zero) to the end of publication
+  };
   // A registration with what the visual outputs need.
   struct Outcome {
     mac_registration::RegistrationResult msg;
@@ -63,6 +75,7 @@ class RegistrationServer {
     Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
     // When to look the odometry up (map_odom mode): the input's stamp; zero means the latest.
     ros::Time odometry_stamp;
+    StageTimes times;
   };
   using SyncPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::PointCloud2, sensor_msgs::PointCloud2>;
@@ -78,12 +91,19 @@ class RegistrationServer {
   void onReconfigure(MacRegistrationConfig& config, std::uint32_t level);
 
   void workerLoop();
+  // `cache_target`: the target came from the `target` topic (or a synchronized pair), so later sources
+  // will likely meet it again; a service request's own target is described for that call alone.
   Outcome registerClouds(const sensor_msgs::PointCloud2& source,
-                         const sensor_msgs::PointCloud2ConstPtr& target, const ros::Time& received);
-  // The target's keypoints and descriptors, computed once per target message (a latched map or keyframe is
-  // described once, not for every scan). Throws std::invalid_argument for an unusable target.
+                         const sensor_msgs::PointCloud2ConstPtr& target, const ros::Time& received,
+                         bool cache_target);
+  // The target's keypoints and descriptors, computed once per target message and feature parameters (a
+  // latched map or keyframe is described once, not for every scan). Throws std::invalid_argument for an
+  // unusable target.
   std::shared_ptr<const DescribedCloud> describedTarget(const sensor_msgs::PointCloud2ConstPtr& target,
-                                                        const FeatureParams& params, std::size_t& dropped);
+                                                        const FeatureParams& params, std::size_t& dropped,
+                                                        bool cache);
+  std::shared_ptr<const DescribedCloud> describeTarget(const sensor_msgs::PointCloud2& target,
+                                                       const FeatureParams& params, std::size_t& dropped);
   Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences,
                                   const ros::Time& received);
   Outcome missingTarget(const sensor_msgs::PointCloud2& source, const std::string& why,
@@ -95,6 +115,9 @@ class RegistrationServer {
   void publishTf(Outcome& outcome, const NodeParams& node);
   void watchForShutdown();
   void reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void recordTimes(const StageTimes& times);
+  static void reportRecentTimes(const std::deque<StageTimes>& recent,
+                                diagnostic_updater::DiagnosticStatusWrapper& status);
   ServerConfig config() const;
 
   ros::NodeHandle nh_, private_nh_;
@@ -122,12 +145,18 @@ class RegistrationServer {
     std::shared_ptr<const DescribedCloud> described;
     std::size_t dropped = 0;
   };
+  // Held while the cached target is checked and described: a service call and the worker that meet the
+  // same new target describe it once between them.
   std::mutex target_cache_mutex_;
   TargetCache target_cache_;
 
   std::mutex stats_mutex_;
   std::size_t registrations_ = 0, failures_ = 0;
-  std::size_t unverified_ = 0;  // of the failures, transforms the verification did not confirm
+  std::size_t unverified_ = 0;           // of the failures, transforms the verification did not confirm
+  std::size_t inputs_received_ = 0;      // on the topics (sources, synchronized pairs, correspondences)
+  std::size_t target_descriptions_ = 0;  // times a target cloud was described
+  double last_target_description_ms_ = 0.0;
+  std::deque<StageTimes> recent_times_;  // of the latest topic registrations, newest last
   mac_registration::RegistrationResult last_result_;
 
   StopFlag stop_{false};
