@@ -231,7 +231,7 @@ void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outc
       << "ratio = " << ours << "/" << peer << "\n"
       << std::left << std::setw(int(name_width)) << "pair" << std::right;
   for (const std::string& m : {ours, peer})
-    out << std::setw(16) << m << std::setw(7) << "voxel" << std::setw(8) << "normals" << std::setw(7)
+    out << std::setw(18) << m << std::setw(7) << "voxel" << std::setw(8) << "normals" << std::setw(7)
         << "fpfh" << std::setw(8) << "reg" << std::setw(8) << "total" << std::setw(8) << "peakMB";
   out << std::setw(8) << "time x" << std::setw(8) << "mem x"
       << "\n";
@@ -247,7 +247,7 @@ void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outc
       // ours: the resolution estimate (0 unless asked for) belongs to the front end's first stage
       totals[k] = f.total() + m.times.total_ms;
       peaks[k] = m.peak_mb;
-      out << std::setw(16) << verdict(m) << std::setw(7) << f.resolution_ms + f.downsample_ms << std::setw(8)
+      out << std::setw(18) << verdict(m) << std::setw(7) << f.resolution_ms + f.downsample_ms << std::setw(8)
           << f.normals_ms << std::setw(7) << f.features_ms << std::setw(8) << f.matching_ms + m.times.total_ms
           << std::setw(8) << totals[k] << std::setw(8) << peaks[k];
       ++k;
