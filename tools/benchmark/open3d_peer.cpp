@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <cctype>
 #include <cstdio>
 #include <map>
 #include <sstream>
@@ -46,8 +47,10 @@ ScriptRun runScript(const Open3dSettings& settings, const std::vector<std::strin
   return run;
 }
 
-void throwOnFailure(const Open3dSettings& settings, const ScriptRun& run) {
+void throwOnFailure(const Open3dSettings& settings, ScriptRun run) {
   if (run.status == 0) return;
+  while (!run.output.empty() && std::isspace(static_cast<unsigned char>(run.output.back())))
+    run.output.pop_back();
   if (run.status == kMissingOpen3d)
     throw std::runtime_error(
         "the Open3D baseline needs Debian's python3-open3d (apt-get install python3-open3d) "
@@ -84,10 +87,8 @@ const std::string& field(const Record& r, const std::string& key) {
 
 double number(const Record& r, const std::string& key) {
   try {
-    std::size_t used = 0;
-    const double v = std::stod(field(r, key), &used);
-    return v;
-  } catch (const std::invalid_argument&) {
+    return std::stod(field(r, key));
+  } catch (const std::logic_error&) {  // invalid_argument, out_of_range
     throw std::runtime_error("the Open3D baseline's '" + key + "' is not a number: '" + field(r, key) + "'");
   }
 }
