@@ -19,7 +19,7 @@ struct BenchmarkSettings {
   // The RANSAC baseline on the same correspondences (only in builds with the PCL front end).
   bool baseline = true;
   int ransac_max_iterations = 50000;
-  // Open3D's own pipeline on the same clouds (pairs with clouds only), in a child process per pair: the
+  // Open3D's own pipeline on the same clouds (pairs with clouds only), its script run once per pair: the
   // voxel size is features.voxel_size, its other parameters the tutorial's in units of it.
   bool open3d = false;
   Open3dSettings open3d_settings;

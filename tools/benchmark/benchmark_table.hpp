@@ -47,9 +47,9 @@ struct PairOutcome {
   std::string name, subset;
   std::string error;  // set when the pair could not be run (e.g. unreadable cloud): every method missed it
   std::size_t correspondences = 0;
-  double inlier_ratio =
-      0.0;                  // share of the correspondences within tau of their target under the ground truth
-  FrontEndTimes front_end;  // ours
+  // Share of the correspondences within tau of their target under the ground truth.
+  double inlier_ratio = 0.0;
+  FrontEndTimes front_end;                           // ours
   std::size_t source_points = 0, target_points = 0;  // of the clouds as read (0 for correspondence sets)
   std::vector<MethodOutcome> methods;                // same methods, same order, for every pair that ran
 
