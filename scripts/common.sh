@@ -21,6 +21,8 @@ DEBIAN_PACKAGES=(
   # for the shell tools on the node's outputs: rostopic echo /diagnostics and ~correspondence_markers,
   # rosservice call MANAGER/list, rosrun tf2_tools echo.py
   python3-diagnostic-msgs python3-visualization-msgs python3-nodelet python3-numpy
+  # mac_benchmark's peers (--baseline open3d / fgr) and their test
+  python3-open3d
 )
 
 install_dependencies() {

@@ -13,8 +13,12 @@
 //                        near-inliers and with shuffled targets; --synthetic the synthetic grid of
 //                        --sizes/--ratios/--repeats and its 0 % and unrelated sets;
 //                        --no-cloud-verification judges on the correspondences alone)
-// dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline ransac|none]
+// dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline LIST]
 //                  [--ransac-iterations N] [--subset NAME] [--limit N]
+// --baseline LIST: comma-separated, of ransac (PCL's RANSAC on our correspondences; the dataset modes'
+//   default), open3d (Open3D's own pipeline on the same clouds), fgr (Open3D's FGR on the same
+//   correspondences; synthetic and correspondences modes), none. The Open3D peers run
+//   tools/benchmark/open3d_baseline.py with [--python /usr/bin/python3] [--open3d-script FILE].
 // The synthetic and correspondences modes run each case in a child process so that its peak resident
 // memory is its own; the dataset modes print a paper-style recall table (see BENCHMARKS.md).
 #include <sys/resource.h>
@@ -37,6 +41,7 @@
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
+#include "open3d_peer.hpp"
 #include "synthetic.hpp"
 #include "verification_eval.hpp"
 
@@ -59,6 +64,7 @@ struct Options {
   // verify mode
   bool derived = false, synthetic = false;
   std::vector<double> thresholds{0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9};
+  bool fgr = false;  // --baseline fgr, synthetic and correspondences modes
 };
 
 // The benchmark: section of a preset and --set benchmark.* keys: the success criterion of the recall.
@@ -96,7 +102,7 @@ void loadConfig(Options& o, const std::string& path) {
 // What one case measured: medians over the repeats, accuracy of each repeat.
 struct CaseResult {
   double graph = 0, second_order = 0, cliques = 0, selection = 0, hypotheses = 0, evaluation = 0,
-         refinement = 0, total = 0;
+         refinement = 0, total = 0, verification = 0;
   double peak_mb = 0;
   double clique_count = 0, selected = 0, inliers = 0, edges = 0;
   double max_re = 0, max_te = 0;
@@ -112,7 +118,7 @@ double median(std::vector<double> v) {
 
 template <typename Run>
 CaseResult measure(int repeats, Run run_once) {
-  std::vector<std::vector<double>> stage(12);
+  std::vector<std::vector<double>> stage(13);
   CaseResult r;
   r.repeats = repeats;
   for (int k = 0; k < repeats; ++k) {
@@ -130,8 +136,9 @@ CaseResult measure(int repeats, Run run_once) {
                              double(result.counters.cliques),
                              double(result.counters.selected_cliques),
                              double(result.counters.inliers),
-                             double(result.counters.graph_edges)};
-    for (int s = 0; s < 12; ++s) stage[s].push_back(values[s]);
+                             double(result.counters.graph_edges),
+                             t.verification_ms};
+    for (int s = 0; s < 13; ++s) stage[s].push_back(values[s]);
     r.successes += result.success;
     r.incomplete += !result.clique_search_complete;
     if (result.success) {
@@ -139,10 +146,10 @@ CaseResult measure(int repeats, Run run_once) {
       r.max_te = std::max(r.max_te, translationError(result.T_target_source, truth));
     }
   }
-  double* fields[] = {&r.graph,        &r.second_order, &r.cliques,    &r.selection,
-                      &r.hypotheses,   &r.evaluation,   &r.refinement, &r.total,
-                      &r.clique_count, &r.selected,     &r.inliers,    &r.edges};
-  for (int s = 0; s < 12; ++s) *fields[s] = median(stage[s]);
+  double* fields[] = {&r.graph,      &r.second_order, &r.cliques,     &r.selection,    &r.hypotheses,
+                      &r.evaluation, &r.refinement,   &r.total,       &r.clique_count, &r.selected,
+                      &r.inliers,    &r.edges,        &r.verification};
+  for (int s = 0; s < 13; ++s) *fields[s] = median(stage[s]);
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   r.peak_mb = usage.ru_maxrss / 1024.0;
@@ -173,44 +180,148 @@ CaseResult inChild(Work work) {
   return r;
 }
 
-const char* kHeader =
-    "case,n,inlier_ratio,noise_m,graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,"
-    "evaluation_ms,"
-    "refinement_ms,total_ms,peak_mb,graph_edges,cliques,selected_cliques,inliers,successes,repeats,"
-    "incomplete_searches,max_re_deg,max_te_m";
+// FGR on the same correspondence sets as a case's repeats (--baseline fgr): medians over the repeats.
+struct PeerCase {
+  bool ran = false;
+  double ms = 0.0, median_re = 0.0, median_te = 0.0, peak_mb = 0.0;
+  int recalled = 0, repeats = 0;
+};
+
+StageTimes stageTimesOf(const CaseResult& r) {
+  StageTimes t;
+  t.graph_ms = r.graph;
+  t.second_order_ms = r.second_order;
+  t.clique_search_ms = r.cliques;
+  t.selection_ms = r.selection;
+  t.hypotheses_ms = r.hypotheses;
+  t.evaluation_ms = r.evaluation;
+  t.refinement_ms = r.refinement;
+  t.verification_ms = r.verification;
+  t.total_ms = r.total;
+  return t;
+}
+
+// The core's stages (graph .. verify, other) and their shares of the median total; the front end's
+// entries of stageShares are zero here.
+std::vector<StageShare> coreShares(const CaseResult& r) {
+  std::vector<StageShare> shares = stageShares({}, stageTimesOf(r), r.total);
+  shares.erase(shares.begin(), shares.begin() + 5);
+  return shares;
+}
+
+std::string kHeader() {
+  std::string header =
+      "case,n,inlier_ratio,noise_m,graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,"
+      "evaluation_ms,refinement_ms,total_ms,peak_mb,graph_edges,cliques,selected_cliques,inliers,successes,"
+      "repeats,incomplete_searches,max_re_deg,max_te_m,verification_ms";
+  for (const StageShare& stage : coreShares(CaseResult{}))
+    header += std::string(",") + stage.name + "_share_pct";
+  return header + ",fgr_ms,fgr_recalled,fgr_median_re_deg,fgr_median_te_m,fgr_peak_mb";
+}
+
+// Writes each repeat's correspondence set for FGR, runs it once on all of them and judges each
+// transform against its truth.
+PeerCase runFgr(const Options& o, const std::vector<CorrespondenceSet>& sets,
+                const std::vector<Eigen::Isometry3d>& truths) {
+  const std::filesystem::path folder =
+      std::filesystem::temp_directory_path() / ("mac_benchmark_fgr_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(folder);
+  std::vector<std::string> files;
+  for (std::size_t k = 0; k < sets.size(); ++k) {
+    files.push_back((folder / ("set_" + std::to_string(k) + ".txt")).string());
+    std::ofstream out(files.back());
+    out << std::setprecision(9);
+    for (Eigen::Index c = 0; c < sets[k].source_points.cols(); ++c)
+      out << sets[k].source_points.col(c).transpose() << " " << sets[k].target_points.col(c).transpose()
+          << "\n";
+    if (!out) throw std::runtime_error("cannot write '" + files.back() + "'");
+  }
+  Open3dFgrRuns runs;
+  try {
+    runs = runOpen3dFgr(o.dataset.open3d_settings, files, o.config.mac.evaluation.inlier_threshold);
+  } catch (...) {
+    std::filesystem::remove_all(folder);
+    throw;
+  }
+  std::filesystem::remove_all(folder);
+  PeerCase peer;
+  peer.ran = true;
+  peer.repeats = int(sets.size());
+  peer.peak_mb = runs.peak_mb;
+  std::vector<double> times, re, te;
+  for (std::size_t k = 0; k < runs.runs.size(); ++k) {
+    times.push_back(runs.runs[k].fgr_ms);
+    re.push_back(rotationErrorDeg(runs.runs[k].T_target_source, truths[k]));
+    te.push_back(translationError(runs.runs[k].T_target_source, truths[k]));
+    peer.recalled += o.dataset.criterion.accepts(re.back(), te.back());
+  }
+  peer.ms = median(times);
+  peer.median_re = median(re);
+  peer.median_te = median(te);
+  return peer;
+}
 
 void printRow(std::ostream& out, const std::string& name, int n, double ratio, double noise,
-              const CaseResult& r) {
+              const CaseResult& r, const PeerCase& fgr) {
   out << std::fixed << std::setprecision(2) << std::setw(14) << name << std::setw(7) << n << std::setw(6)
       << ratio * 100 << "%" << std::setw(8) << r.graph << std::setw(8) << r.second_order << std::setw(9)
       << r.cliques << std::setw(8) << r.selection << std::setw(7) << r.hypotheses << std::setw(8)
       << r.evaluation << std::setw(7) << r.refinement << std::setw(9) << r.total << std::setw(8)
       << std::setprecision(1) << r.peak_mb << std::setw(10) << std::setprecision(0) << r.clique_count
       << std::setw(7) << r.inliers << std::setw(5) << r.successes << "/" << r.repeats << std::setw(8)
-      << std::setprecision(2) << r.max_re << std::setw(8) << std::setprecision(3) << r.max_te << "\n";
+      << std::setprecision(2) << r.max_re << std::setw(8) << std::setprecision(3) << r.max_te;
+  if (fgr.ran)
+    out << std::setprecision(2) << std::setw(9) << fgr.ms << std::setw(4) << fgr.recalled << "/"
+        << fgr.repeats << std::setw(8) << fgr.median_re << std::setw(8) << std::setprecision(3)
+        << fgr.median_te;
+  out << "\n";
   (void)noise;
 }
 
-void printTableHeader(std::ostream& out) {
+void printTableHeader(std::ostream& out, bool fgr) {
   out << std::setw(14) << "case" << std::setw(7) << "N" << std::setw(7) << "inl" << std::setw(8) << "graph"
       << std::setw(8) << "SOG" << std::setw(9) << "cliques" << std::setw(8) << "select" << std::setw(7)
       << "hyp" << std::setw(8) << "eval" << std::setw(7) << "refine" << std::setw(9) << "total"
       << std::setw(8) << "peakMB" << std::setw(10) << "#cliques" << std::setw(7) << "#inl" << std::setw(7)
-      << "ok" << std::setw(8) << "maxRE" << std::setw(8) << "maxTE"
-      << "\n"
+      << "ok" << std::setw(8) << "maxRE" << std::setw(8) << "maxTE";
+  if (fgr)
+    out << std::setw(9) << "FGR ms" << std::setw(6) << "FGRok" << std::setw(8) << "medRE" << std::setw(8)
+        << "medTE";
+  out << "\n"
       << std::setw(14) << "" << std::setw(7) << "" << std::setw(7) << ""
       << "  (median ms per stage)" << std::setw(52) << "(median)" << std::setw(24) << "[deg]" << std::setw(8)
-      << "[m]"
+      << "[m]" << (fgr ? "   (FGR: median ms, recalled, median RE [deg] / TE [m])" : "") << "\n";
+}
+
+// The median time of each core stage as a share of the median total, one line per case.
+void printShares(std::ostream& out, const std::vector<std::pair<std::string, CaseResult>>& cases) {
+  out << "\nshare of the median total per stage [%] (other: the untimed rest; medians of stages need not add "
+         "up to the median total)\n"
+      << std::setw(22) << "case";
+  for (const StageShare& stage : coreShares(CaseResult{})) out << std::setw(8) << stage.name;
+  out << std::setw(9) << "total ms"
       << "\n";
+  out << std::fixed << std::setprecision(1);
+  for (const auto& [name, r] : cases) {
+    out << std::setw(22) << name;
+    for (const StageShare& stage : coreShares(r)) out << std::setw(8) << stage.percent;
+    out << std::setw(9) << std::setprecision(2) << r.total << std::setprecision(1) << "\n";
+  }
 }
 
 void writeCsvRow(std::ostream& csv, const std::string& name, int n, double ratio, double noise,
-                 const CaseResult& r) {
+                 const CaseResult& r, const PeerCase& fgr) {
   csv << name << "," << n << "," << ratio << "," << noise << "," << r.graph << "," << r.second_order << ","
       << r.cliques << "," << r.selection << "," << r.hypotheses << "," << r.evaluation << "," << r.refinement
       << "," << r.total << "," << r.peak_mb << "," << r.edges << "," << r.clique_count << "," << r.selected
       << "," << r.inliers << "," << r.successes << "," << r.repeats << "," << r.incomplete << "," << r.max_re
-      << "," << r.max_te << "\n";
+      << "," << r.max_te << "," << r.verification;
+  for (const StageShare& stage : coreShares(r)) csv << "," << stage.percent;
+  if (fgr.ran)
+    csv << "," << fgr.ms << "," << fgr.recalled << "," << fgr.median_re << "," << fgr.median_te << ","
+        << fgr.peak_mb << "\n";
+  else
+    csv << ",,,,,\n";
 }
 
 std::vector<std::string> split(const std::string& text) {
@@ -247,10 +358,23 @@ Options parseOptions(int argc, char** argv) {
     else if (arg == "--set")
       applySetting(o, value());
     else if (arg == "--baseline") {
-      const std::string b = value();
-      if (b != "ransac" && b != "none") throw std::invalid_argument("--baseline is ransac or none");
-      o.dataset.baseline = b == "ransac";
-    } else if (arg == "--ransac-iterations")
+      o.dataset.baseline = o.dataset.open3d = o.fgr = false;
+      for (const std::string& b : split(value())) {
+        if (b == "ransac")
+          o.dataset.baseline = true;
+        else if (b == "open3d")
+          o.dataset.open3d = true;
+        else if (b == "fgr")
+          o.fgr = true;
+        else if (b != "none")
+          throw std::invalid_argument(
+              "--baseline takes ransac, open3d, fgr or none (comma-separated), not '" + b + "'");
+      }
+    } else if (arg == "--python")
+      o.dataset.open3d_settings.python = value();
+    else if (arg == "--open3d-script")
+      o.dataset.open3d_settings.script = value();
+    else if (arg == "--ransac-iterations")
       o.dataset.ransac_max_iterations = std::stoi(value());
     else if (arg == "--subset")
       o.subset_filter = value();
@@ -287,41 +411,72 @@ std::ofstream openCsv(const std::string& path) {
   return csv;
 }
 
+// Repeat k (seed k + 1) of the synthetic case of n correspondences.
+SyntheticProblem syntheticCase(const TriangleMesh& mesh, int n, double ratio, double noise, int k) {
+  SyntheticSpec spec;
+  spec.correspondences = n;
+  spec.inlier_ratio = ratio;
+  spec.noise_sigma = noise;
+  spec.object_size = 3.0;
+  spec.seed = static_cast<std::uint32_t>(k + 1);
+  return makeSyntheticProblem(mesh, spec);
+}
+
+void printFgrSettings(std::ostream& out, const Options& o) {
+  out << "FGR (Open3D registration_fgr_based_on_correspondence) on the same sets: absolute scale, "
+         "maximum_correspondence_distance = tau = "
+      << o.config.mac.evaluation.inlier_threshold
+      << " m, Open3D's other defaults; recalled: RE <= " << o.dataset.criterion.max_rotation_deg
+      << " deg and TE <= " << o.dataset.criterion.max_translation << " m\n";
+}
+
 int runSynthetic(Options o, bool params_given) {
   const TriangleMesh mesh = readAsciiPlyMesh(o.mesh);
   if (!params_given) {
     o.config.mac.graph.gaussian_sigma = 50.0 * o.noise;
     o.config.mac.evaluation.inlier_threshold = 10.0 * o.noise;
   }
+  if (o.fgr) requireOpen3d(o.dataset.open3d_settings);
   std::ofstream csv;
   if (!o.csv.empty()) {
     csv = openCsv(o.csv);
-    csv << kHeader << "\n";
+    csv << kHeader() << "\n";
   }
   std::cout << "synthetic: bunny mesh scaled to 3 m, noise " << o.noise << " m, " << o.repeats
             << " repeats per case (seeds 1..), gaussian_sigma " << o.config.mac.graph.gaussian_sigma
             << " m, t_cmp " << o.config.mac.graph.t_cmp << ", tau "
             << o.config.mac.evaluation.inlier_threshold << " m\n";
-  printTableHeader(std::cout);
+  if (o.fgr) printFgrSettings(std::cout, o);
+  printTableHeader(std::cout, o.fgr);
+  std::vector<std::pair<std::string, CaseResult>> cases;
   for (int n : o.sizes) {
     for (double ratio : o.ratios) {
       const CaseResult r = inChild([&] {
         return measure(o.repeats, [&](int k, Eigen::Isometry3d& truth) {
-          SyntheticSpec spec;
-          spec.correspondences = n;
-          spec.inlier_ratio = ratio;
-          spec.noise_sigma = o.noise;
-          spec.object_size = 3.0;
-          spec.seed = static_cast<std::uint32_t>(k + 1);
-          const SyntheticProblem problem = makeSyntheticProblem(mesh, spec);
+          const SyntheticProblem problem = syntheticCase(mesh, n, ratio, o.noise, k);
           truth = problem.T_target_source;
           return registerCorrespondences(problem.correspondences, o.config.mac);
         });
       });
-      printRow(std::cout, "synthetic", n, ratio, o.noise, r);
-      if (csv.is_open()) writeCsvRow(csv, "synthetic", n, ratio, o.noise, r);
+      PeerCase fgr;
+      if (o.fgr) {  // the same sets again: the generator is seeded
+        std::vector<CorrespondenceSet> sets;
+        std::vector<Eigen::Isometry3d> truths;
+        for (int k = 0; k < o.repeats; ++k) {
+          SyntheticProblem problem = syntheticCase(mesh, n, ratio, o.noise, k);
+          sets.push_back(std::move(problem.correspondences));
+          truths.push_back(problem.T_target_source);
+        }
+        fgr = runFgr(o, sets, truths);
+      }
+      printRow(std::cout, "synthetic", n, ratio, o.noise, r, fgr);
+      if (csv.is_open()) writeCsvRow(csv, "synthetic", n, ratio, o.noise, r, fgr);
+      std::ostringstream name;
+      name << "N " << n << ", " << ratio * 100 << " %";
+      cases.emplace_back(name.str(), r);
     }
   }
+  printShares(std::cout, cases);
   return 0;
 }
 
@@ -329,20 +484,27 @@ int runCorrespondences(const Options& o) {
   if (o.positional.size() != 2) throw std::invalid_argument("correspondences needs FILE GT_FILE");
   const CorrespondenceSet c = readCorrespondencesFile(o.positional[0]);
   const Eigen::Isometry3d gt = readTransformFile(o.positional[1]);
+  if (o.fgr) requireOpen3d(o.dataset.open3d_settings);
   const CaseResult r = inChild([&] {
     return measure(o.repeats, [&](int, Eigen::Isometry3d& truth) {
       truth = gt;
       return registerCorrespondences(c, o.config.mac);
     });
   });
+  // FGR is deterministic on one set: as many runs as ours, for a median of as many times.
+  const PeerCase fgr = o.fgr ? runFgr(o, std::vector<CorrespondenceSet>(std::size_t(o.repeats), c),
+                                      std::vector<Eigen::Isometry3d>(std::size_t(o.repeats), gt))
+                             : PeerCase{};
   std::cout << "correspondences: " << o.positional[0] << " (" << c.size() << "), " << o.repeats
             << " repeats\n";
-  printTableHeader(std::cout);
-  printRow(std::cout, "file", int(c.size()), 0.0, 0.0, r);
+  if (o.fgr) printFgrSettings(std::cout, o);
+  printTableHeader(std::cout, o.fgr);
+  printRow(std::cout, "file", int(c.size()), 0.0, 0.0, r, fgr);
+  printShares(std::cout, {{"file", r}});
   if (!o.csv.empty()) {
     std::ofstream csv = openCsv(o.csv);
-    csv << kHeader << "\n";
-    writeCsvRow(csv, o.positional[0], int(c.size()), 0.0, 0.0, r);
+    csv << kHeader() << "\n";
+    writeCsvRow(csv, o.positional[0], int(c.size()), 0.0, 0.0, r, fgr);
   }
   return r.successes == r.repeats ? 0 : 1;
 }
@@ -389,6 +551,13 @@ void printSettings(std::ostream& out, const Options& o, bool baseline) {
     out << "RANSAC (PCL), at most " << o.dataset.ransac_max_iterations << " iterations\n";
   else
     out << (o.dataset.baseline ? "none (this build has no PCL)" : "none") << "\n";
+  if (o.dataset.open3d) {
+    const double v = f.voxel_size;
+    out << "peer: Open3D's pipeline on the same clouds (tools/benchmark/open3d_baseline.py): voxel " << v
+        << " m, normals in " << 2 * v << " m (max 30 neighbours), FPFH in " << 5 * v
+        << " m (max 100), RANSAC on FPFH matches: mutual filter, distance " << 1.5 * v
+        << " m, edge-length 0.9 and distance checkers, at most 100000 iterations, confidence 0.999, seed 1\n";
+  }
 }
 
 void printProgress(std::ostream& out, std::size_t k, std::size_t count, const PairOutcome& r) {
@@ -416,6 +585,8 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
     csv = openCsv(o.csv);  // now rather than after a long run
   }
   const bool baseline = o.dataset.baseline && benchmarkHasFeatures();
+  if (o.fgr) throw std::invalid_argument("--baseline fgr is for the synthetic and correspondences modes");
+  if (o.dataset.open3d) requireOpen3d(o.dataset.open3d_settings);
   std::cout << "dataset: " << source << ", " << pairs.size() << " pairs\n";
   printSettings(std::cout, o, baseline);
   o.dataset.mac = o.config.mac;
@@ -431,6 +602,7 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
   }
   std::cout << "\n";
   printSummary(std::cout, summarize(outcomes), o.dataset.criterion);
+  printPeerComparison(std::cout, outcomes, "MAC", "Open3D");
   if (errors > 0)
     std::cout << errors << " pairs could not be run (counted as misses; see the progress lines)\n";
   if (csv.is_open()) {
@@ -548,7 +720,9 @@ int main(int argc, char** argv) {
   }
   const std::string mode = argv[1];
   try {
-    const Options options = parseOptions(argc, argv);
+    Options options = parseOptions(argc, argv);
+    // The peers get as many threads as ours (0: each library's default, all cores).
+    options.dataset.open3d_settings.threads = options.config.mac.num_threads;
     bool params_given = false;
     for (int i = 2; i < argc; ++i)
       params_given |= std::string(argv[i]) == "--config" || std::string(argv[i]) == "--set";

@@ -1,11 +1,13 @@
 #include "benchmark_runner.hpp"
 
+#include <algorithm>
 #include <exception>
 #include <memory>
 
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
+#include "process_memory.hpp"
 #ifdef MAC_REGISTRATION_WITH_FEATURES
 #include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
@@ -40,6 +42,35 @@ MethodOutcome outcomeOf(const std::string& method, const MacResult& result, cons
   return judge(m, criterion);
 }
 
+MethodOutcome open3dOutcome(const BenchmarkPair& pair, const BenchmarkSettings& settings) {
+  MethodOutcome m;
+  m.method = "Open3D";
+  Open3dCloudsRun run;
+  try {
+    run = runOpen3dClouds(settings.open3d_settings, pair.source_path, pair.target_path,
+                          settings.features.voxel_size, 1);
+  } catch (const std::exception& e) {
+    m.status = e.what();
+    return m;
+  }
+  // Open3D's RANSAC gives the identity with no inlier when no sample passed its checkers.
+  m.registered = run.inliers >= std::max<std::size_t>(3, settings.mac.evaluation.min_inliers);
+  m.status = m.registered ? "success" : "too few inliers";
+  if (run.inliers > 0) {
+    m.rotation_error_deg = rotationErrorDeg(run.T_target_source, pair.T_target_source_gt);
+    m.translation_error = translationError(run.T_target_source, pair.T_target_source_gt);
+  }
+  m.inliers = run.inliers;
+  FrontEndTimes f;
+  f.downsample_ms = run.downsample_ms;
+  f.normals_ms = run.normals_ms;
+  f.features_ms = run.fpfh_ms;
+  m.front_end = f;
+  m.times.total_ms = run.registration_ms;  // its matching included
+  m.peak_mb = run.peak_mb;
+  return judge(m, settings.criterion);
+}
+
 }  // namespace
 
 bool benchmarkHasFeatures() {
@@ -70,6 +101,8 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
       std::make_shared<FeatureCorrespondences>(computeCorrespondences(*source, *target, settings.features));
   const FrontEndStats& s = features->stats;
   prepared.front_end = {s.resolution_ms, s.downsample_ms, s.normals_ms, s.features_ms, s.matching_ms};
+  prepared.source_points = s.source_points;
+  prepared.target_points = s.target_points;
   prepared.correspondences = features->correspondences;
   // The same parameters registerClouds() would use.
   prepared.mac = withResolutionUnits(settings.mac, settings.features, s.resolution);
@@ -89,6 +122,7 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
   outcome.name = pair.name;
   outcome.subset = pair.subset;
   PreparedPair prepared;
+  resetPeakMemory();
   try {
     prepared = preparePair(pair, settings);
   } catch (const std::exception& e) {
@@ -97,12 +131,15 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
   }
   const CorrespondenceSet& correspondences = prepared.correspondences;
   outcome.front_end = prepared.front_end;
+  outcome.source_points = prepared.source_points;
+  outcome.target_points = prepared.target_points;
   outcome.correspondences = correspondences.size();
   outcome.inlier_ratio =
       inlierRatio(correspondences, pair.T_target_source_gt, settings.mac.evaluation.inlier_threshold);
 
   outcome.methods.push_back(
       outcomeOf("MAC", prepared.registerSet(correspondences), pair.T_target_source_gt, settings.criterion));
+  outcome.methods.back().peak_mb = peakMemoryMb();
 #ifdef MAC_REGISTRATION_WITH_FEATURES
   if (settings.baseline) {
     RansacParams ransac;
@@ -113,6 +150,7 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
                                         pair.T_target_source_gt, settings.criterion));
   }
 #endif
+  if (settings.open3d && pair.hasClouds()) outcome.methods.push_back(open3dOutcome(pair, settings));
   return outcome;
 }
 

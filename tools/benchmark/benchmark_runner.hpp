@@ -8,6 +8,7 @@
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/features/feature_params.hpp"
+#include "open3d_peer.hpp"
 
 namespace mac_registration {
 
@@ -18,6 +19,10 @@ struct BenchmarkSettings {
   // The RANSAC baseline on the same correspondences (only in builds with the PCL front end).
   bool baseline = true;
   int ransac_max_iterations = 50000;
+  // Open3D's own pipeline on the same clouds (pairs with clouds only), its script run once per pair: the
+  // voxel size is features.voxel_size, its other parameters the tutorial's in units of it.
+  bool open3d = false;
+  Open3dSettings open3d_settings;
   // The clouds' stage of the verification after the core (as registerClouds); false judges the
   // correspondences alone, as a caller of registerCorrespondences gets them.
   bool cloud_verification = true;
@@ -32,6 +37,7 @@ struct PreparedPair {
   CorrespondenceSet correspondences;
   MacParams mac;
   FrontEndTimes front_end;
+  std::size_t source_points = 0, target_points = 0;  // as read
   // The cloud stage of the verification on a result (empty for correspondence sets). It reads the
   // keypoints only, so it also judges results on other correspondence sets between the same clouds.
   std::function<void(MacResult&)> verify_with_clouds;
@@ -44,8 +50,10 @@ struct PreparedPair {
 PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& settings);
 
 // Front end (clouds) or the correspondence file, then MAC and the baseline on the very same
-// correspondences, judged against the ground truth. Never throws: a pair that cannot be run comes back
-// with `error` set and no method outcomes.
+// correspondences, judged against the ground truth; with settings.open3d, Open3D's pipeline on the same
+// clouds (an "Open3D" outcome with its own front end; a failure of the script is its status). MAC's
+// peak memory is the process's peak from reading the clouds to MAC's result. Never throws: a pair that cannot
+// be run comes back with `error` set and no method outcomes.
 PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings& settings);
 
 }  // namespace mac_registration

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <iomanip>
+#include <sstream>
 
 namespace mac_registration {
 namespace {
@@ -32,13 +33,16 @@ SummaryRow summarizeGroup(const std::string& subset, const std::string& method,
   row.pairs = pairs.size();
   std::vector<const MethodOutcome*> ran;
   std::vector<const FrontEndTimes*> front_ends;
+  std::vector<double> totals, peaks;
   double inlier_ratios = 0.0, rotation = 0.0, translation = 0.0;
   for (const PairOutcome* pair : pairs) {
     const auto it = std::find_if(pair->methods.begin(), pair->methods.end(),
                                  [&](const MethodOutcome& m) { return m.method == method; });
     if (it == pair->methods.end()) continue;
     ran.push_back(&*it);
-    front_ends.push_back(&pair->front_end);
+    front_ends.push_back(&pair->frontEndOf(*it));
+    totals.push_back(pair->frontEndOf(*it).total() + it->times.total_ms);
+    if (!std::isnan(it->peak_mb)) peaks.push_back(it->peak_mb);
     inlier_ratios += pair->inlier_ratio;
     if (it->recalled) {
       ++row.recalled;
@@ -73,6 +77,8 @@ SummaryRow summarizeGroup(const std::string& subset, const std::string& method,
   s.refinement_ms = medianOf<M>(ran, [](const M& m) { return m.times.refinement_ms; });
   s.verification_ms = medianOf<M>(ran, [](const M& m) { return m.times.verification_ms; });
   s.total_ms = medianOf<M>(ran, [](const M& m) { return m.times.total_ms; });
+  row.median_total_ms = median(totals);
+  if (!peaks.empty()) row.median_peak_mb = median(peaks);
   return row;
 }
 
@@ -81,7 +87,41 @@ void appendUnique(std::vector<T>& list, const T& value) {
   if (std::find(list.begin(), list.end(), value) == list.end()) list.push_back(value);
 }
 
+const MethodOutcome* find(const PairOutcome& pair, const std::string& method) {
+  for (const MethodOutcome& m : pair.methods) {
+    if (m.method == method) return &m;
+  }
+  return nullptr;
+}
+
+// "ok RE/TE" or "MISS RE/TE" of one method on one pair, for the side-by-side table.
+std::string verdict(const MethodOutcome& m) {
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(1) << (m.recalled ? "ok " : "MISS ");
+  if (std::isnan(m.rotation_error_deg))
+    text << "-";
+  else
+    text << m.rotation_error_deg << "/" << 100.0 * m.translation_error;
+  return text.str();
+}
+
+double ratio(double ours, double peer) { return peer > 0.0 ? ours / peer : std::nan(""); }
+
 }  // namespace
+
+std::vector<StageShare> stageShares(const FrontEndTimes& f, const StageTimes& s, double total_ms) {
+  std::vector<StageShare> shares = {
+      {"resol", f.resolution_ms},   {"voxel", f.downsample_ms},      {"normals", f.normals_ms},
+      {"fpfh", f.features_ms},      {"match", f.matching_ms},        {"graph", s.graph_ms},
+      {"SOG", s.second_order_ms},   {"cliques", s.clique_search_ms}, {"select", s.selection_ms},
+      {"hyp", s.hypotheses_ms},     {"eval", s.evaluation_ms},       {"refine", s.refinement_ms},
+      {"verify", s.verification_ms}};
+  double timed = 0.0;
+  for (const StageShare& stage : shares) timed += stage.ms;
+  shares.push_back({"other", std::max(0.0, total_ms - timed)});
+  for (StageShare& stage : shares) stage.percent = total_ms > 0.0 ? 100.0 * stage.ms / total_ms : 0.0;
+  return shares;
+}
 
 MethodOutcome judge(MethodOutcome outcome, const SuccessCriterion& criterion) {
   // NaN errors (no transform) compare false, so they are never accepted.
@@ -156,6 +196,74 @@ void printSummary(std::ostream& out, const std::vector<SummaryRow>& rows, const 
       out << std::setw(8) << v;
     out << std::setw(9) << s.total_ms << "\n";
   }
+  out << "\nshare of the median total (front end + method) per stage [%]; other: the untimed rest and the "
+         "baselines' method time\n"
+      << std::left << std::setw(subset_width) << "subset" << std::setw(method_width) << "method"
+      << std::right;
+  for (const StageShare& stage : stageShares({}, {}, 0.0)) out << std::setw(8) << stage.name;
+  out << std::setw(9) << "total" << std::setw(9) << "peakMB"
+      << "\n";
+  for (const SummaryRow& r : rows) {
+    out << std::left << std::setw(subset_width) << r.subset << std::setw(method_width) << r.method
+        << std::right << std::setprecision(1);
+    for (const StageShare& stage : stageShares(r.median_front_end, r.median_times, r.median_total_ms))
+      out << std::setw(8) << stage.percent;
+    out << std::setw(9) << r.median_total_ms << std::setw(9) << r.median_peak_mb << "\n";
+  }
+  out.flags(old_flags);
+  out.precision(old_precision);
+}
+
+void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outcomes, const std::string& ours,
+                         const std::string& peer) {
+  std::vector<const PairOutcome*> both;
+  for (const PairOutcome& p : outcomes) {
+    if (find(p, ours) && find(p, peer)) both.push_back(&p);
+  }
+  if (both.empty()) return;
+  const auto old_flags = out.flags();
+  const auto old_precision = out.precision();
+  std::size_t name_width = 10;
+  for (const PairOutcome* p : both) name_width = std::max(name_width, p->name.size() + 2);
+  out << "\n"
+      << ours << " beside " << peer << " pair by pair: verdict RE[deg]/TE[cm]; ms per stage (voxel, "
+      << "normals, fpfh, match+registration: ours match + method, " << peer << " its registration); peak MB; "
+      << "ratio = " << ours << "/" << peer << "\n"
+      << std::left << std::setw(int(name_width)) << "pair" << std::right;
+  for (const std::string& m : {ours, peer})
+    out << std::setw(18) << m << std::setw(7) << "voxel" << std::setw(8) << "normals" << std::setw(7)
+        << "fpfh" << std::setw(8) << "reg" << std::setw(8) << "total" << std::setw(8) << "peakMB";
+  out << std::setw(8) << "time x" << std::setw(8) << "mem x"
+      << "\n";
+  std::vector<double> time_ratios, memory_ratios;
+  out << std::fixed << std::setprecision(0);
+  for (const PairOutcome* p : both) {
+    out << std::left << std::setw(int(name_width)) << p->name << std::right;
+    double totals[2], peaks[2];
+    int k = 0;
+    for (const std::string& name : {ours, peer}) {
+      const MethodOutcome& m = *find(*p, name);
+      const FrontEndTimes& f = p->frontEndOf(m);
+      // ours: the resolution estimate (0 unless asked for) belongs to the front end's first stage
+      totals[k] = f.total() + m.times.total_ms;
+      peaks[k] = m.peak_mb;
+      out << std::setw(18) << verdict(m) << std::setw(7) << f.resolution_ms + f.downsample_ms << std::setw(8)
+          << f.normals_ms << std::setw(7) << f.features_ms << std::setw(8) << f.matching_ms + m.times.total_ms
+          << std::setw(8) << totals[k] << std::setw(8) << peaks[k];
+      ++k;
+    }
+    time_ratios.push_back(ratio(totals[0], totals[1]));
+    memory_ratios.push_back(ratio(peaks[0], peaks[1]));
+    out << std::setprecision(2) << std::setw(8) << time_ratios.back() << std::setw(8) << memory_ratios.back()
+        << std::setprecision(0) << "\n";
+  }
+  const auto finite = [](std::vector<double> v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
+    return v;
+  };
+  out << std::setprecision(2) << "median ratio " << ours << "/" << peer << " over " << both.size()
+      << " pairs: time " << median(finite(time_ratios)) << ", peak memory " << median(finite(memory_ratios))
+      << "\n";
   out.flags(old_flags);
   out.precision(old_precision);
 }
@@ -164,7 +272,9 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
   out << "pair,subset,method,correspondences,inlier_ratio,registered,status,rotation_error_deg,"
          "translation_error_m,recalled,inliers,resolution_ms,downsample_ms,normals_ms,fpfh_ms,matching_ms,"
          "graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,evaluation_ms,refinement_ms,"
-         "verification_ms,method_total_ms,error\n";
+         "verification_ms,method_total_ms,source_points,target_points,total_ms,peak_mb";
+  for (const StageShare& stage : stageShares({}, {}, 0.0)) out << "," << stage.name << "_share_pct";
+  out << ",error\n";
   const auto quoted = [](const std::string& text) {
     std::string q = "\"";
     for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
@@ -180,18 +290,26 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
     if (p.methods.empty()) {
       prefix("");
       out << "0,,,,0,0," << f.resolution_ms << "," << f.downsample_ms << "," << f.normals_ms << ","
-          << f.features_ms << "," << f.matching_ms << ",0,0,0,0,0,0,0,0,0," << quoted(p.error) << "\n";
+          << f.features_ms << "," << f.matching_ms << ",0,0,0,0,0,0,0,0,0," << p.source_points << ","
+          << p.target_points << "," << f.total() << ",nan";
+      for (const StageShare& stage : stageShares(f, {}, f.total())) out << "," << stage.percent;
+      out << "," << quoted(p.error) << "\n";
       continue;
     }
     for (const MethodOutcome& m : p.methods) {
       const StageTimes& s = m.times;
+      const FrontEndTimes& f = p.frontEndOf(m);
+      const double total = f.total() + s.total_ms;
       prefix(m.method);
       out << m.registered << "," << quoted(m.status) << "," << m.rotation_error_deg << ","
           << m.translation_error << "," << m.recalled << "," << m.inliers << "," << f.resolution_ms << ","
           << f.downsample_ms << "," << f.normals_ms << "," << f.features_ms << "," << f.matching_ms << ","
           << s.graph_ms << "," << s.second_order_ms << "," << s.clique_search_ms << "," << s.selection_ms
           << "," << s.hypotheses_ms << "," << s.evaluation_ms << "," << s.refinement_ms << ","
-          << s.verification_ms << "," << s.total_ms << "," << quoted(p.error) << "\n";
+          << s.verification_ms << "," << s.total_ms << "," << p.source_points << "," << p.target_points << ","
+          << total << "," << m.peak_mb;
+      for (const StageShare& stage : stageShares(f, s, total)) out << "," << stage.percent;
+      out << "," << quoted(p.error) << "\n";
     }
   }
 }

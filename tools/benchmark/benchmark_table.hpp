@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -34,18 +35,43 @@ struct MethodOutcome {
   double translation_error = std::numeric_limits<double>::quiet_NaN();   // [m]
   bool recalled = false;    // registered and within the criterion
   std::size_t inliers = 0;  // of its own transform, at its own threshold
-  StageTimes times;         // per stage for MAC, total only for the baseline
+  StageTimes times;         // per stage for MAC, total only for the baselines
+  // A peer with its own front end (Open3D on the clouds) sets its stages here; unset: the pair's, ours.
+  std::optional<FrontEndTimes> front_end;
+  // [MiB] peak resident memory of the process while the method ran on this pair (front end included);
+  // NaN when not measured (RANSAC shares MAC's process after MAC's peak was taken).
+  double peak_mb = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct PairOutcome {
   std::string name, subset;
   std::string error;  // set when the pair could not be run (e.g. unreadable cloud): every method missed it
   std::size_t correspondences = 0;
-  double inlier_ratio =
-      0.0;  // share of the correspondences within tau of their target under the ground truth
-  FrontEndTimes front_end;
-  std::vector<MethodOutcome> methods;  // same methods, same order, for every pair that ran
+  // Share of the correspondences within tau of their target under the ground truth.
+  double inlier_ratio = 0.0;
+  FrontEndTimes front_end;                           // ours
+  std::size_t source_points = 0, target_points = 0;  // of the clouds as read (0 for correspondence sets)
+  std::vector<MethodOutcome> methods;                // same methods, same order, for every pair that ran
+
+  // The front end `m` ran after: its own, else ours.
+  const FrontEndTimes& frontEndOf(const MethodOutcome& m) const {
+    return m.front_end ? *m.front_end : front_end;
+  }
 };
+
+// The stages of a registration from clouds in, in the order of the tables: the front end's, then the
+// core's (the baselines report their total alone, under "other").
+struct StageShare {
+  const char* name;  // column name, e.g. "fpfh"
+  double ms = 0.0;
+  double percent = 0.0;  // of the total it was divided by
+};
+
+// Each stage's time and its share of `total_ms` (front end + method) [%]; the shares of a run whose
+// stages cover its whole time add up to 100, and a last entry "other" holds the untimed rest (the
+// baselines' whole method time), never negative.
+std::vector<StageShare> stageShares(const FrontEndTimes& front_end, const StageTimes& method,
+                                    double total_ms);
 
 // The method's outcome for a pair, after the criterion: recalled = registered && criterion accepts.
 MethodOutcome judge(MethodOutcome outcome, const SuccessCriterion& criterion);
@@ -61,7 +87,9 @@ struct SummaryRow {
   double mean_inlier_ratio = 0.0;  // of the correspondences, over the pairs that ran
   FrontEndTimes median_front_end;  // stage by stage, over the pairs that ran
   double median_front_end_total_ms = 0.0;
-  StageTimes median_times;  // stage by stage, over the pairs that ran
+  StageTimes median_times;       // stage by stage, over the pairs that ran
+  double median_total_ms = 0.0;  // front end + method, per pair
+  double median_peak_mb = std::numeric_limits<double>::quiet_NaN();  // over the pairs that measured it
 };
 
 // Rows per subset in order of first appearance, then "all" when there is more than one subset; within
@@ -69,6 +97,12 @@ struct SummaryRow {
 std::vector<SummaryRow> summarize(const std::vector<PairOutcome>& outcomes);
 
 void printSummary(std::ostream& out, const std::vector<SummaryRow>& rows, const SuccessCriterion& criterion);
+
+// Ours against a peer pair by pair (pairs both ran): recall, RE/TE, time per stage, total and peak memory
+// of each, the ratio ours/peer of the total time and of the peak memory, and the median ratios. Prints
+// nothing when either method is absent.
+void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outcomes, const std::string& ours,
+                         const std::string& peer);
 
 // One row per pair and method (a pair that could not be run: one row with its error); what
 // tools/plot_benchmark.py reads.
