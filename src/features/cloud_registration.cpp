@@ -106,7 +106,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
   out.resolution_ms = millisecondsSince(start);
 
   start = Clock::now();
-  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size, params.num_threads);
+  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size);
   out.voxels = voxels->size();
   out.downsample_ms = millisecondsSince(start);
 
@@ -123,7 +123,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
   NormalCloud::Ptr surface_normals = kept_normals;
   if (params.support_voxel_factor > 1.0) {
     start = Clock::now();
-    surface = voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size, params.num_threads);
+    surface = voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size);
     out.downsample_ms += millisecondsSince(start);
     start = Clock::now();
     // Fitted to the keypoints around each surface point, not to the few surface points themselves.

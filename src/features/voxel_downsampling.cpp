@@ -1,5 +1,3 @@
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -39,37 +37,20 @@ struct Cells {
   std::int64_t high[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
 };
 
-Cells computeCells(const PointCloud& cloud, double voxel_size, int threads) {
+Cells computeCells(const PointCloud& cloud, double voxel_size) {
   const double inverse = 1.0 / voxel_size;
-  const auto n = static_cast<std::int64_t>(cloud.size());
   Cells out;
   out.xyz.resize(3 * cloud.size());
-  std::int64_t first_bad = n;  // the first point out of range, reported as a serial pass would
-  std::int64_t* low = out.low;
-  std::int64_t* high = out.high;
-#pragma omp parallel for num_threads(threads) schedule(static) reduction(min                   \
-                                                                         : first_bad, low[:3]) \
-    reduction(max                                                                              \
-              : high[:3])
-  for (std::int64_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
     const auto& p = cloud.points[i];
     const double coordinates[3] = {p.x, p.y, p.z};
     for (int axis = 0; axis < 3; ++axis) {
       const double cell = std::floor(coordinates[axis] * inverse);
-      if (!cellInRange(cell)) {
-        first_bad = std::min(first_bad, i);
-        break;
-      }
+      if (!cellInRange(cell)) throwCellOutOfRange(coordinates[axis], voxel_size);
       const auto c = static_cast<std::int64_t>(cell);
       out.xyz[3 * i + axis] = c;
-      low[axis] = std::min(low[axis], c);
-      high[axis] = std::max(high[axis], c);
-    }
-  }
-  if (first_bad < n) {
-    const auto& p = cloud.points[first_bad];
-    for (const double coordinate : {double(p.x), double(p.y), double(p.z)}) {
-      if (!cellInRange(std::floor(coordinate * inverse))) throwCellOutOfRange(coordinate, voxel_size);
+      out.low[axis] = std::min(out.low[axis], c);
+      out.high[axis] = std::max(out.high[axis], c);
     }
   }
   return out;
@@ -83,13 +64,12 @@ struct Keyed {
 
 // Mixed-radix keys over the occupied box: their order is the lexicographic order of the voxels, and they
 // need only as many bits as the box has voxels, which bounds the passes of the radix sort below.
-std::vector<Keyed> voxelKeys(const Cells& cells, std::size_t n, std::uint64_t& largest_key, int threads) {
+std::vector<Keyed> voxelKeys(const Cells& cells, std::size_t n, std::uint64_t& largest_key) {
   const std::uint64_t span_y = std::uint64_t(cells.high[1] - cells.low[1] + 1);
   const std::uint64_t span_z = std::uint64_t(cells.high[2] - cells.low[2] + 1);
   largest_key = (std::uint64_t(cells.high[0] - cells.low[0]) * span_y + (span_y - 1)) * span_z + (span_z - 1);
   std::vector<Keyed> keyed(n);
   const auto count = static_cast<std::int64_t>(n);
-#pragma omp parallel for num_threads(threads) schedule(static)
   for (std::int64_t i = 0; i < count; ++i) {
     const std::int64_t* c = &cells.xyz[3 * i];
     const std::uint64_t x = std::uint64_t(c[0] - cells.low[0]), y = std::uint64_t(c[1] - cells.low[1]),
@@ -116,15 +96,14 @@ void radixSortByKey(std::vector<Keyed>& keyed, std::uint64_t largest_key) {
 
 }  // namespace
 
-PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size, int num_threads) {
+PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size) {
   if (!(voxel_size > 0.0)) throw std::invalid_argument("voxel size must be > 0");
   auto result = pcl::make_shared<PointCloud>();
   if (cloud.empty()) return result;
   if (cloud.size() > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("a cloud of " + std::to_string(cloud.size()) + " points is beyond 2^32");
-  const int threads = num_threads > 0 ? num_threads : omp_get_num_procs();
 
-  const Cells cells = computeCells(cloud, voxel_size, threads);
+  const Cells cells = computeCells(cloud, voxel_size);
   for (int axis = 0; axis < 3; ++axis) {
     if (cells.high[axis] - cells.low[axis] >= kVoxelsPerAxis) {
       throw std::invalid_argument("the cloud spans " +
@@ -134,7 +113,7 @@ PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size, int 
     }
   }
   std::uint64_t largest_key = 0;
-  std::vector<Keyed> keyed = voxelKeys(cells, cloud.size(), largest_key, threads);
+  std::vector<Keyed> keyed = voxelKeys(cells, cloud.size(), largest_key);
   radixSortByKey(keyed, largest_key);
 
   std::vector<std::size_t> begins;  // where each voxel's run of points starts, then the end
@@ -144,7 +123,6 @@ PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size, int 
   begins.push_back(keyed.size());
   const auto voxels = static_cast<std::int64_t>(begins.size() - 1);
   result->resize(voxels);
-#pragma omp parallel for num_threads(threads) schedule(static)
   for (std::int64_t v = 0; v < voxels; ++v) {
     double sum[3] = {0.0, 0.0, 0.0};
     for (std::size_t k = begins[v]; k < begins[v + 1]; ++k) {
