@@ -55,6 +55,17 @@ void throwIfOutOfRange(const PointCloud& finite, double voxel_size, const std::s
   }
 }
 
+// The indices of the finite normals.
+std::vector<int> finiteNormals(const NormalCloud& normals) {
+  std::vector<int> finite;
+  for (int i = 0; i < static_cast<int>(normals.size()); ++i) {
+    const auto& n = normals[i];
+    if (std::isfinite(n.normal_x) && std::isfinite(n.normal_y) && std::isfinite(n.normal_z))
+      finite.push_back(i);
+  }
+  return finite;
+}
+
 void throwIfInvalid(const FeatureParams& params) {
   const auto problems = validateFeatureParams(params);
   if (problems.empty()) return;
@@ -70,7 +81,8 @@ bool resolutionNeeded(const FeatureParams& params) { return params.gaussian_sigm
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params) {
   return cloud.params.voxel_size == params.voxel_size &&
          cloud.params.normal_radius_factor == params.normal_radius_factor &&
-         cloud.params.feature_radius_factor == params.feature_radius_factor;
+         cloud.params.feature_radius_factor == params.feature_radius_factor &&
+         cloud.params.support_voxel_factor == params.support_voxel_factor;
 }
 
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role) {
@@ -99,22 +111,33 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
   out.downsample_ms = millisecondsSince(start);
 
   start = Clock::now();
-  const NormalCloud::Ptr normals =
-      estimateNormals(voxels, params.normal_radius_factor * params.voxel_size, params.num_threads);
-  std::vector<int> with_normal;
-  for (int i = 0; i < static_cast<int>(normals->size()); ++i) {
-    const auto& n = (*normals)[i];
-    if (std::isfinite(n.normal_x) && std::isfinite(n.normal_y) && std::isfinite(n.normal_z))
-      with_normal.push_back(i);
-  }
+  const double normal_radius = params.normal_radius_factor * params.voxel_size;
+  const NormalCloud::Ptr normals = estimateNormals(voxels, normal_radius, params.num_threads);
   // Points without a normal are left out of the FPFH neighbourhoods too: their pair features are undefined.
+  const std::vector<int> with_normal = finiteNormals(*normals);
   voxels = subset(*voxels, with_normal);
   const NormalCloud::Ptr kept_normals = subset(*normals, with_normal);
   out.normals_ms = millisecondsSince(start);
 
+  PointCloud::Ptr surface = voxels;
+  NormalCloud::Ptr surface_normals = kept_normals;
+  if (params.support_voxel_factor > 1.0) {
+    start = Clock::now();
+    surface = voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size);
+    out.downsample_ms += millisecondsSince(start);
+    start = Clock::now();
+    // Fitted to the keypoints around each surface point, not to the few surface points themselves.
+    const NormalCloud::Ptr fitted = estimateNormals(surface, voxels, normal_radius, params.num_threads);
+    const std::vector<int> fitted_finite = finiteNormals(*fitted);
+    surface = subset(*surface, fitted_finite);
+    surface_normals = subset(*fitted, fitted_finite);
+    out.normals_ms += millisecondsSince(start);
+  }
+  out.support_points = surface->size();
+
   start = Clock::now();
-  const FpfhCloud::Ptr descriptors =
-      computeFpfh(voxels, kept_normals, params.feature_radius_factor * params.voxel_size, params.num_threads);
+  const FpfhCloud::Ptr descriptors = computeFpfh(
+      voxels, surface, surface_normals, params.feature_radius_factor * params.voxel_size, params.num_threads);
   std::vector<int> usable;
   for (int i = 0; i < static_cast<int>(descriptors->size()); ++i) {
     if (isUsableDescriptor((*descriptors)[i])) usable.push_back(i);
@@ -132,7 +155,7 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   throwIfInvalid(params);
   if (!describedWith(s, params) || !describedWith(t, params)) {
     throw std::invalid_argument(
-        "the clouds were described with other voxel_size or radius factors than these");
+        "the clouds were described with other voxel_size, radius or support factors than these");
   }
   FeatureCorrespondences out;
   FrontEndStats& stats = out.stats;

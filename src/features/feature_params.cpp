@@ -26,6 +26,11 @@ std::vector<std::string> validateFeatureParams(const FeatureParams& p) {
   // near-constant angles and no descriptive power.
   check(std::isfinite(p.feature_radius_factor) && p.feature_radius_factor > p.normal_radius_factor,
         "feature_radius_factor", p.feature_radius_factor, "> normal_radius_factor");
+  // A surface grid as coarse as the FPFH radius leaves a keypoint a point or two to describe it by. (1, the
+  // keypoints themselves, is always usable: a bad radius is that parameter's own problem.)
+  check(std::isfinite(p.support_voxel_factor) && p.support_voxel_factor >= 1.0 &&
+            (p.support_voxel_factor == 1.0 || p.support_voxel_factor < p.feature_radius_factor),
+        "support_voxel_factor", p.support_voxel_factor, ">= 1 and, above 1, < feature_radius_factor");
   check(p.max_correspondences >= 3, "max_correspondences", double(p.max_correspondences), ">= 3");
   check(p.ratio_test == 0.0 || (p.ratio_test > 0.0 && p.ratio_test < 1.0), "ratio_test", p.ratio_test,
         "0 (off) or in (0, 1)");

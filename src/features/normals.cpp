@@ -5,9 +5,11 @@
 
 namespace mac_registration {
 
-NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radius, int num_threads) {
+NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const PointCloud::ConstPtr& surface,
+                                 double radius, int num_threads) {
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimator(num_threads > 0 ? num_threads : 0);
   estimator.setInputCloud(points);
+  if (surface != points) estimator.setSearchSurface(surface);
   estimator.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
   estimator.setRadiusSearch(radius);
   // FPFH angles depend on the sign of the normals: facing each cloud's own sensor makes the two clouds
@@ -18,6 +20,10 @@ NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radi
   auto normals = pcl::make_shared<NormalCloud>();
   estimator.compute(*normals);
   return normals;
+}
+
+NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radius, int num_threads) {
+  return estimateNormals(points, points, radius, num_threads);
 }
 
 }  // namespace mac_registration

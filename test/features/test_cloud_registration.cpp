@@ -1,6 +1,7 @@
 // The front end and registerClouds on a real 3DMatch pair (redkitchen fragments 4 -> 0, 37 % overlap,
 // shipped downsampled to 3 cm) with its ground truth, and on the ways input can be bad.
 #include <gtest/gtest.h>
+#include <pcl/features/fpfh.h>
 #include <pcl/features/fpfh_omp.h>
 #include <pcl/search/kdtree.h>
 
@@ -158,6 +159,27 @@ TEST(BadInput, InvalidFeatureParametersAreRefusedWithTheirName) {
   EXPECT_EQ(validateFeatureParams(params).size(), 2u);
 }
 
+TEST(BadInput, ASupportSurfaceFinerThanTheKeypointsOrAsCoarseAsTheRadiusIsRefused) {
+  FeatureParams params;
+  for (const double factor : {0.5, 0.0, -1.0, 5.0, 6.0, std::numeric_limits<double>::quiet_NaN(),
+                              std::numeric_limits<double>::infinity()}) {
+    params.support_voxel_factor = factor;
+    const auto problems = validateFeatureParams(params);
+    ASSERT_EQ(problems.size(), 1u) << factor;
+    EXPECT_NE(problems[0].find("support_voxel_factor"), std::string::npos) << problems[0];
+    EXPECT_NE(problems[0].find("feature_radius_factor"), std::string::npos) << problems[0];
+  }
+  for (const double factor : {1.0, 1.5, 4.9}) {
+    params.support_voxel_factor = factor;
+    EXPECT_TRUE(validateFeatureParams(params).empty()) << factor;
+  }
+  params.support_voxel_factor = 0.5;
+  const PointCloud::Ptr cloud = realPair().source;
+  const CloudRegistrationResult r = registerClouds(*cloud, *cloud, params, MacParams{});
+  EXPECT_EQ(r.registration.status, RegistrationStatus::kInvalidParameters);
+  EXPECT_NE(r.registration.message.find("support_voxel_factor"), std::string::npos);
+}
+
 TEST(BadInput, CloudsWithoutThreeFinitePointsFailAsInvalidInput) {
   PointCloud all_nan;
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -277,6 +299,81 @@ TEST(RealPair, FpfhIsPclsOwnEstimatorsBitForBit) {
       for (int d = 0; d < 33; ++d) differing += (*actual)[i].histogram[d] != expected[i].histogram[d];
     }
     EXPECT_EQ(differing, 0u) << threads << " threads";
+  }
+}
+
+// PCL's own estimator with a separate search surface: the descriptors computeFpfh must reproduce bit for
+// bit when the surface is coarser than the keypoints.
+FpfhCloud pclFpfhOnSurface(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,
+                           const NormalCloud::ConstPtr& surface_normals, double radius) {
+  pcl::FPFHEstimation<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> estimator;
+  estimator.setInputCloud(keypoints);
+  estimator.setSearchSurface(surface);
+  estimator.setInputNormals(surface_normals);
+  estimator.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimator.setRadiusSearch(radius);
+  FpfhCloud features;
+  estimator.compute(features);
+  return features;
+}
+
+TEST(RealPair, FpfhOnACoarserSupportSurfaceIsPclsSearchSurfaceEstimatorBitForBit) {
+  std::size_t dropped = 0;
+  const PointCloud::Ptr keypoints = voxelDownsample(*finitePoints(*realPair().source, dropped), 0.05);
+  // As describeCloud does with support_voxel_factor 2: a grid of the keypoints, its normals fitted to
+  // the keypoints, only surface points with a normal.
+  const PointCloud::Ptr grid = voxelDownsample(*keypoints, 0.1);
+  const NormalCloud::Ptr grid_normals = estimateNormals(grid, keypoints, 0.1, 0);
+  auto surface = pcl::make_shared<PointCloud>();
+  auto normals = pcl::make_shared<NormalCloud>();
+  for (std::size_t i = 0; i < grid->size(); ++i) {
+    if (!std::isfinite((*grid_normals)[i].normal_x)) continue;
+    surface->push_back((*grid)[i]);
+    normals->push_back((*grid_normals)[i]);
+  }
+  ASSERT_GT(surface->size(), 300u);
+  ASSERT_LT(surface->size(), keypoints->size() / 2);
+  const double radius = 0.25;
+  const FpfhCloud expected = pclFpfhOnSurface(keypoints, surface, normals, radius);
+  for (const int threads : {1, 2}) {
+    const FpfhCloud::Ptr actual = computeFpfh(keypoints, surface, normals, radius, threads);
+    ASSERT_EQ(actual->size(), expected.size());
+    std::size_t differing = 0, usable = 0;
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      usable += isUsableDescriptor((*actual)[i]);
+      for (int d = 0; d < 33; ++d) {
+        const float a = (*actual)[i].histogram[d], e = expected[i].histogram[d];
+        differing += !(a == e || (std::isnan(a) && std::isnan(e)));
+      }
+    }
+    EXPECT_EQ(differing, 0u) << threads << " threads";
+    EXPECT_GT(usable, expected.size() * 9 / 10) << threads << " threads";
+  }
+}
+
+TEST(RealPair, ACoarserSupportSurfaceStillMatchesAndIsRecordedWithTheDescriptors) {
+  const RealPair& pair = realPair();
+  FeatureParams params;
+  params.support_voxel_factor = 2.0;
+  const DescribedCloud s = describeCloud(*pair.source, params, "source");
+  const DescribedCloud t = describeCloud(*pair.target, params, "target");
+  // A quarter of the keypoints or so: the surface's points scale with its area.
+  EXPECT_GT(s.support_points, s.voxels / 8);
+  EXPECT_LT(s.support_points, s.voxels / 2);
+  const FeatureCorrespondences c = matchDescribedClouds(s, t, params);
+  EXPECT_GT(inlierRatio(c.correspondences, pair.truth, 0.1), 0.03);
+  // Descriptors depend on the surface: a cloud described on another one is refused, naming the reason.
+  const FeatureParams keypoint_surface;
+  EXPECT_FALSE(describedWith(s, keypoint_surface));
+  const DescribedCloud plain = describeCloud(*pair.target, keypoint_surface, "target");
+  // Its surface is the keypoints with a normal: every described one, and at most every voxel.
+  EXPECT_GE(plain.support_points, plain.keypoints->size());
+  EXPECT_LE(plain.support_points, plain.voxels);
+  try {
+    matchDescribedClouds(s, plain, params);
+    ADD_FAILURE() << "matched descriptors of different surfaces";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("support"), std::string::npos) << e.what();
   }
 }
 

@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -75,6 +77,35 @@ TEST(VoxelDownsample, DoesNotDependOnTheOrderOfThePoints) {
   }
   // 40 points at 1.3 cm span 0.507 m: 11 voxels of 5 cm per axis.
   EXPECT_EQ(forward->size(), 11u * 11u);
+}
+
+// A box of 10 m at 5 cm holds 8 M possible voxels: the keys need several passes of the radix sort, whose
+// order must still be the lexicographic order of the voxels, each centroid the mean of its points.
+TEST(VoxelDownsample, OrdersAWideCloudLexicographically) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> coordinate(-5.0f, 5.0f);
+  PointCloud cloud;
+  for (int i = 0; i < 20000; ++i)
+    cloud.push_back(pcl::PointXYZ(coordinate(rng), coordinate(rng), coordinate(rng)));
+  const double voxel = 0.05, inverse = 1.0 / voxel;  // the grid's own arithmetic, for the boundaries
+  const auto cellOf = [&](const pcl::PointXYZ& p) {
+    return std::array<long, 3>{long(std::floor(p.x * inverse)), long(std::floor(p.y * inverse)),
+                               long(std::floor(p.z * inverse))};
+  };
+  std::map<std::array<long, 3>, std::array<double, 4>> expected;  // sums and count per voxel
+  for (const auto& p : cloud) {
+    auto& sum = expected[cellOf(p)];
+    sum[0] += p.x, sum[1] += p.y, sum[2] += p.z, sum[3] += 1.0;
+  }
+  const PointCloud::Ptr one = voxelDownsample(cloud, voxel);
+  ASSERT_EQ(one->size(), expected.size());
+  std::size_t i = 0;
+  for (const auto& [cell, sum] : expected) {
+    const pcl::PointXYZ& p = (*one)[i++];
+    EXPECT_EQ(cellOf(p), cell) << i;
+    EXPECT_FLOAT_EQ(p.x, float(sum[0] / sum[3])) << i;
+    EXPECT_FLOAT_EQ(p.z, float(sum[2] / sum[3])) << i;
+  }
 }
 
 TEST(VoxelDownsample, RefusesAGridTooFineForTheExtent) {

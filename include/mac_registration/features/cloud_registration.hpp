@@ -54,6 +54,7 @@ struct DescribedCloud {
   std::size_t voxels = 0;      // keypoints after the voxel grid
   std::size_t no_feature = 0;  // of them, without a normal or a usable descriptor
   double resolution = 0.0;     // [m] mean nearest-neighbour distance of the given cloud, 0 = not estimated
+  std::size_t support_points = 0;  // of the FPFH surface (features.support_voxel_factor), with a normal
   // Where the sensor was, in the cloud's frame (its sensor_origin_: a PCD's VIEWPOINT, else the origin).
   Eigen::Vector3f viewpoint = Eigen::Vector3f::Zero();
   double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0;
@@ -68,11 +69,12 @@ bool resolutionNeeded(const FeatureParams& params);
 // that message. All of it is checked before any kd-tree or voxel grid is built.
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role);
 
-// Whether `cloud` was described with the voxel size and radii of `params` (what its descriptors depend on).
+// Whether `cloud` was described with the voxel size, radii and support factor of `params` (what its
+// descriptors depend on).
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params);
 
 // Matches two described clouds. Throws std::invalid_argument when they were described with different
-// voxel sizes or radii.
+// voxel sizes, radii or support factors.
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
                                             const FeatureParams& params);
 

@@ -16,6 +16,10 @@ struct FeatureParams {
   std::size_t max_correspondences = 5000;  // [count], >= 3: keep the best-matching ones (feature distance)
   bool mutual_filter = false;              // keep only mutual nearest neighbours in feature space
   double ratio_test = 0.0;  // Lowe's ratio in (0, 1), 0 = off: nearest / second nearest distance
+  // The surface each FPFH sums over: a voxel grid of the keypoints with leaf factor x voxel_size, in
+  // [1, feature_radius_factor). 1 = the keypoints themselves (PCL's FPFH at every keypoint); a coarser
+  // surface holds fewer points in each keypoint's radius (their count scales with the area: 1/factor^2).
+  double support_voxel_factor = 1.0;
   // Approximation of the descriptor search, >= 0, 0 = exact: the match found is at most (1 + epsilon)
   // times farther than the nearest descriptor (FLANN's kd-tree eps). 1 keeps 99.9 % of the exact matches
   // on 3DMatch and KITTI scans and halves the search time on 19 000 lidar keypoints; exact by default, as

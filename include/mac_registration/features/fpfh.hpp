@@ -4,9 +4,17 @@
 
 namespace mac_registration {
 
-// FPFH descriptors (Rusu et al. 2009) from the neighbours within `radius` [m]: PCL's SPFH and weighting
-// steps on all `num_threads` threads (0 = one per core), the same descriptors as PCL's OpenMP estimator
-// bit for bit, with each neighbourhood searched once instead of twice. `normals` must be finite.
+// FPFH descriptors (Rusu et al. 2009) at `keypoints` from the points of `surface` within `radius` [m]:
+// PCL's SPFH step at every surface point some keypoint's neighbourhood holds (from its own surface
+// neighbours and `surface_normals`, which must be finite), then PCL's weighting of those SPFH at each
+// keypoint. The same descriptors as PCL's FPFHEstimation with setSearchSurface(surface) bit for bit,
+// on all `num_threads` threads (0 = one per core), each neighbourhood searched once instead of twice.
+// A surface coarser than the keypoints makes each descriptor a sum over fewer pair features; the
+// keypoints' own normals are not used. NaN where a keypoint has no surface point within `radius`.
+FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,
+                           const NormalCloud::ConstPtr& surface_normals, double radius, int num_threads);
+
+// The keypoints as their own surface: PCL's OpenMP estimator's descriptors bit for bit.
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& points, const NormalCloud::ConstPtr& normals,
                            double radius, int num_threads);
 

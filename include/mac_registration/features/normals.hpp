@@ -4,9 +4,14 @@
 
 namespace mac_registration {
 
-// Normals from the points within `radius` [m] (PCL's OpenMP estimator), oriented towards
-// the cloud's sensor_origin_ (the origin of its frame unless set). NaN where fewer than 3 neighbours
-// fix a plane.
+// Normals from the points within `radius` [m] (PCL's OpenMP estimator on `num_threads` threads, 0 = one
+// per core), oriented towards the cloud's sensor_origin_ (the origin of its frame unless set). NaN where
+// fewer than 3 neighbours fix a plane.
 NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radius, int num_threads);
+
+// The same at `points` from the neighbours on `surface` (PCL's setSearchSurface), oriented towards
+// `points`' sensor_origin_: normals of a coarse grid fitted to the finer cloud it was made from.
+NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const PointCloud::ConstPtr& surface,
+                                 double radius, int num_threads);
 
 }  // namespace mac_registration
