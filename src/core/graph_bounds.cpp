@@ -30,11 +30,30 @@ BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const
   return out;
 }
 
+namespace {
+
+bool denserThan(const CompatibilityGraph& graph, double mean_degree) {
+  return mean_degree > 0.0 && graph.num_nodes > 0 &&
+         2.0 * double(graph.numEdges()) / graph.num_nodes > mean_degree;
+}
+
+}  // namespace
+
+SecondOrderOutcome secondOrderWeights(const CompatibilityGraph& first_order, double dense_mean_degree,
+                                      int num_threads, const StopFlag* stop) {
+  // One 512-bit AND and popcount (eight words) costs about two random-access multiply-adds of the exact sum.
+  constexpr double kWordsPerMultiplyAdd = 4.0;
+  SecondOrderOutcome out;
+  out.counted = denserThan(first_order, dense_mean_degree) && neighbourCountsFit(first_order) &&
+                countedSecondOrderWork(first_order) / kWordsPerMultiplyAdd < secondOrderWork(first_order);
+  out.graph = out.counted ? buildCountedSecondOrderGraph(first_order, num_threads, stop)
+                          : buildSecondOrderGraph(first_order, num_threads, stop);
+  return out;
+}
+
 BoundedGraph pruneDenseGraph(CompatibilityGraph graph, double dense_mean_degree) {
   BoundedGraph out;
-  const bool dense = dense_mean_degree > 0.0 && graph.num_nodes > 0 &&
-                     2.0 * double(graph.numEdges()) / graph.num_nodes > dense_mean_degree;
-  if (!dense) {
+  if (!denserThan(graph, dense_mean_degree)) {
     out.graph = std::move(graph);
     return out;
   }

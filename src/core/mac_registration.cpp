@@ -212,7 +212,9 @@ CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& p
           "graph too dense for the second-order budget (graph.max_second_order_work): kept the " +
           std::to_string(bounded.kept_nodes) + " correspondences of highest degree");
     }
-    graph = stopRequested(stop) ? CompatibilityGraph{} : buildSecondOrderGraph(bounded.graph, threads, stop);
+    graph = stopRequested(stop)
+                ? CompatibilityGraph{}
+                : secondOrderWeights(bounded.graph, params.graph.dense_mean_degree, threads, stop).graph;
   }
   BoundedGraph pruned = pruneDenseGraph(std::move(graph), params.graph.dense_mean_degree);
   result.counters.pruned_weak_edges = pruned.removed_edges;

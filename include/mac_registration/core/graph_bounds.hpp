@@ -24,6 +24,20 @@ struct BoundedGraph {
 // round until it fits.
 BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop = nullptr);
 
+// The second-order graph of `first_order`, and whether its weights are the counted estimate.
+struct SecondOrderOutcome {
+  CompatibilityGraph graph;
+  bool counted = false;
+};
+
+// graph.dense_mean_degree, before the weights: a first-order graph with a higher mean degree (chance
+// compatibilities among many outliers) gets the counted weights of buildCountedSecondOrderGraph when they
+// cost less than the exact sums and their bitsets fit; the cut of pruneDenseGraph, which only needs the
+// light chance edges told from the heavy consensus ones, follows on such graphs. Sparser graphs (real
+// FPFH matches) keep the exact sums of buildSecondOrderGraph. 0 = always exact.
+SecondOrderOutcome secondOrderWeights(const CompatibilityGraph& first_order, double dense_mean_degree,
+                                      int num_threads, const StopFlag* stop = nullptr);
+
 // graph.dense_mean_degree: a graph with a higher mean degree loses its edges below Otsu's threshold of the
 // weights (chance compatibilities between outliers are light, a consensus set's edges heavy); 0 = never.
 BoundedGraph pruneDenseGraph(CompatibilityGraph graph, double dense_mean_degree);
