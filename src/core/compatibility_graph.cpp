@@ -403,11 +403,9 @@ CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep
   return filteredGraph(graph, keep, [&](std::int64_t p) { return graph.weights[p]; });
 }
 
-// The second-order graph from the common-neighbour sums of the upper edges of the first-order graph
-// `structure` (aligned with its lists; `common` is overwritten): the edges whose sum is positive, weighted
-// by S_ij * sum (Eq. 4). Each sum is first copied to the edge's other direction (a node's lower neighbours
-// come in ascending order, as the rows do), then the lists are filtered in place.
-CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure, std::vector<float>& common) {
+// Copies each upper edge's sum (aligned with the lists of `structure`) to the edge's other direction: a
+// node's lower neighbours come in ascending order, as the rows do.
+void mirrorUpperSums(const CompatibilityGraph& structure, std::vector<float>& common) {
   std::vector<std::int64_t> cursor(structure.offsets.begin(), structure.offsets.end() - 1);
   for (int i = 0; i < structure.num_nodes; ++i) {
     for (auto p = structure.offsets[i]; p < structure.offsets[i + 1]; ++p) {
@@ -415,9 +413,48 @@ CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure, std
       if (j > i) common[cursor[j]++] = common[p];
     }
   }
-  return filteredGraph(
-      structure, [&](int, std::int64_t p) { return common[p] > 0.0f; },
-      [&](std::int64_t p) { return structure.weights[p] * common[p]; });
+}
+
+// The second-order graph from the common-neighbour sums of the upper edges of the first-order graph
+// `structure` (aligned with its lists; `common` is overwritten): the edges whose sum is positive, weighted
+// by S_ij * sum (Eq. 4), the lists filtered in place.
+CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure, std::vector<float>& common) {
+  mirrorUpperSums(structure, common);
+  return triangleEdgesFromSums(structure, common, 0.0f);
+}
+
+// Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (256 bins between the
+// lightest and the heaviest): the cut that best separates them into two classes. `count` is how many.
+template <typename EachWeight>
+float otsuThreshold(EachWeight each_weight, std::size_t edges) {
+  if (edges == 0) return 0.0f;
+  float lightest = 0.0f, heaviest = 0.0f;
+  bool first = true;
+  each_weight([&](float w) {
+    lightest = first || w < lightest ? w : lightest;
+    heaviest = first || w > heaviest ? w : heaviest;
+    first = false;
+  });
+  const double low = lightest, span = double(heaviest) - low;
+  if (!(span > 0.0)) return lightest;
+  constexpr int kBins = 256;
+  std::vector<double> count(kBins, 0.0);
+  each_weight([&](float w) { count[std::min(kBins - 1, int((w - low) / span * kBins))] += 1.0; });
+  const double total = double(edges);
+  double sum_all = 0.0;
+  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
+  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
+  int best_bin = 0;
+  for (int b = 0; b < kBins - 1; ++b) {
+    below += count[b];
+    sum_below += b * count[b];
+    const double above = total - below;
+    if (below == 0.0 || above == 0.0) continue;
+    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
+    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
+    if (between > best_variance) best_variance = between, best_bin = b;
+  }
+  return float(low + span * (best_bin + 1) / kBins);
 }
 
 }  // namespace
@@ -560,8 +597,7 @@ double countedSecondOrderWork(const CompatibilityGraph& graph) {
   return double(graph.numEdges()) * double(wordsPerRow(activeNodes(graph)));
 }
 
-CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
-                                                const StopFlag* stop) {
+std::vector<float> countedCommonSums(const CompatibilityGraph& fog, int num_threads, const StopFlag* stop) {
   // The bit rows of all the nodes exceed L2 (640 bytes each at N = 5000, 3 MB in all), and a chance
   // graph's rows reach almost every node: rows are taken in chunks of kRowsPerChunk, and each chunk's
   // edges column block by column block, so that the chunk and one block stay cached (160 + 128 KB at
@@ -604,7 +640,38 @@ CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, i
       }
     }
   }
-  return graphOfTriangleEdges(fog, common);
+  mirrorUpperSums(fog, common);
+  return common;
+}
+
+CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
+                                                const StopFlag* stop) {
+  return triangleEdgesFromSums(fog, countedCommonSums(fog, num_threads, stop), 0.0f);
+}
+
+CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const std::vector<float>& common,
+                                         float min_weight) {
+  return filteredGraph(
+      fog, [&](int, std::int64_t p) { return common[p] > 0.0f && fog.weights[p] * common[p] >= min_weight; },
+      [&](std::int64_t p) { return fog.weights[p] * common[p]; });
+}
+
+float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common,
+                          std::size_t& edges) {
+  edges = 0;
+  for (int i = 0; i < fog.num_nodes; ++i) {
+    for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p)
+      edges += fog.neighbours[p] > i && common[p] > 0.0f;
+  }
+  return otsuThreshold(
+      [&](auto visit) {
+        for (int i = 0; i < fog.num_nodes; ++i) {
+          for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p) {
+            if (fog.neighbours[p] > i && common[p] > 0.0f) visit(fog.weights[p] * common[p]);
+          }
+        }
+      },
+      edges);
 }
 
 double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
@@ -640,35 +707,17 @@ std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t c
 }
 
 float otsuEdgeThreshold(const CompatibilityGraph& graph) {
-  if (graph.weights.empty()) return 0.0f;
-  const auto [lightest, heaviest] = std::minmax_element(graph.weights.begin(), graph.weights.end());
-  const double low = *lightest, span = double(*heaviest) - low;
-  if (!(span > 0.0)) return *lightest;
-  constexpr int kBins = 256;
-  // Each edge once, from its lower end: every count, sum and product below is then exactly half (or a
-  // quarter) of the one over both directions, and the cut is the same.
-  std::vector<double> count(kBins, 0.0);
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
-      if (graph.neighbours[p] > i)
-        count[std::min(kBins - 1, int((graph.weights[p] - low) / span * kBins))] += 1.0;
-    }
-  }
-  const double total = double(graph.numEdges());
-  double sum_all = 0.0;
-  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
-  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
-  int best_bin = 0;
-  for (int b = 0; b < kBins - 1; ++b) {
-    below += count[b];
-    sum_below += b * count[b];
-    const double above = total - below;
-    if (below == 0.0 || above == 0.0) continue;
-    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
-    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
-    if (between > best_variance) best_variance = between, best_bin = b;
-  }
-  return float(low + span * (best_bin + 1) / kBins);
+  // Each edge once, from its lower end: every count, sum and product is then exactly half (or a quarter)
+  // of the one over both directions, and the cut is the same.
+  return otsuThreshold(
+      [&](auto visit) {
+        for (int i = 0; i < graph.num_nodes; ++i) {
+          for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+            if (graph.neighbours[p] > i) visit(graph.weights[p]);
+          }
+        }
+      },
+      graph.numEdges());
 }
 
 CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold) {

@@ -457,21 +457,40 @@ TEST(SecondOrderGraph, CountedWeightsMatchTheDenseCount) {
   }
 }
 
-// Sparse first-order graphs keep the exact sums; above dense_mean_degree the counts take over, and 0
-// turns them off.
-TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegree) {
-  const CompatibilityGraph sparse = randomGraphWithWeightsFrom(1500, 0.01, 0.99f, 2);  // mean degree ~15
-  const SecondOrderOutcome exact = secondOrderWeights(sparse, 50.0, 2);
-  EXPECT_FALSE(exact.counted);
-  EXPECT_EQ(exact.graph.weights, buildSecondOrderGraph(sparse, 1).weights);
+void expectSameGraph(const CompatibilityGraph& a, const CompatibilityGraph& b, const std::string& where) {
+  EXPECT_EQ(a.num_nodes, b.num_nodes) << where;
+  EXPECT_EQ(a.offsets, b.offsets) << where;
+  EXPECT_EQ(a.neighbours, b.neighbours) << where;
+  EXPECT_EQ(a.weights, b.weights) << where;
+}
 
-  const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, 0.1, 0.99f, 2);  // mean degree ~150
-  const SecondOrderOutcome counted = secondOrderWeights(dense, 50.0, 2);
-  EXPECT_TRUE(counted.counted);
-  EXPECT_EQ(counted.graph.weights, buildCountedSecondOrderGraph(dense, 1).weights);
-  const SecondOrderOutcome off = secondOrderWeights(dense, 0.0, 2);
+// Sparse first-order graphs keep the exact sums; above dense_mean_degree the counts take over, and 0
+// turns them off. Either way the graph is the second-order graph cut by pruneDenseGraph, bit for bit,
+// though the counted one is cut before it is built.
+TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
+  const CompatibilityGraph sparse = randomGraphWithWeightsFrom(1500, 0.01, 0.99f, 2);  // mean degree ~15
+  const SecondOrderOutcome exact = prunedSecondOrderGraph(sparse, 50.0, 2);
+  EXPECT_FALSE(exact.counted);
+  EXPECT_FALSE(exact.pruned.reduced);
+  expectSameGraph(exact.pruned.graph, buildSecondOrderGraph(sparse, 1), "sparse");
+
+  for (const double density : {0.05, 0.1, 0.3}) {
+    const std::string where = "density " + std::to_string(density);
+    const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, density, 0.99f, 2);  // degree 75-450
+    const SecondOrderOutcome counted = prunedSecondOrderGraph(dense, 50.0, 2);
+    const BoundedGraph afterwards = pruneDenseGraph(buildCountedSecondOrderGraph(dense, 1), 50.0);
+    EXPECT_TRUE(counted.counted) << where;
+    ASSERT_TRUE(afterwards.reduced) << where;
+    EXPECT_TRUE(counted.pruned.reduced) << where;
+    EXPECT_GT(afterwards.removed_edges, 0u) << where;
+    EXPECT_EQ(counted.pruned.removed_edges, afterwards.removed_edges) << where;
+    expectSameGraph(counted.pruned.graph, afterwards.graph, where);
+  }
+  const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, 0.1, 0.99f, 2);
+  const SecondOrderOutcome off = prunedSecondOrderGraph(dense, 0.0, 2);
   EXPECT_FALSE(off.counted);
-  EXPECT_EQ(off.graph.weights, buildSecondOrderGraph(dense, 1).weights);
+  EXPECT_FALSE(off.pruned.reduced);
+  expectSameGraph(off.pruned.graph, buildSecondOrderGraph(dense, 1), "dense_mean_degree 0");
 }
 
 TEST(CompatibilityGraph, KeepNodes) {

@@ -71,6 +71,22 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, 
 CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
                                                 const StopFlag* stop = nullptr);
 
+// The estimate of buildCountedSecondOrderGraph before its graph is built: sum_k S_ik S_jk of every edge at
+// its positions in the first-order lists, both directions, 0 for an edge in no triangle.
+std::vector<float> countedCommonSums(const CompatibilityGraph& first_order, int num_threads,
+                                     const StopFlag* stop = nullptr);
+
+// The graph of those sums (the edges with a positive sum, weighted S_ij * sum) with only its edges of
+// weight >= min_weight: buildCountedSecondOrderGraph's graph for 0, and withoutWeakEdges of it for
+// another weight, bit for bit, without building it first.
+CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& first_order,
+                                         const std::vector<float>& common, float min_weight);
+
+// otsuEdgeThreshold of triangleEdgesFromSums(first_order, common, 0) and that graph's edge count, without
+// building it.
+float otsuThresholdOfSums(const CompatibilityGraph& first_order, const std::vector<float>& common,
+                          std::size_t& edges);
+
 // Whether the bitsets of buildCountedSecondOrderGraph on this graph stay within 64 MB.
 bool neighbourCountsFit(const CompatibilityGraph& graph);
 
