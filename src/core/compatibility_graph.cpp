@@ -403,24 +403,11 @@ CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep
   return filteredGraph(graph, keep, [&](std::int64_t p) { return graph.weights[p]; });
 }
 
-// Copies each upper edge's sum (aligned with the lists of `structure`) to the edge's other direction: a
-// node's lower neighbours come in ascending order, as the rows do.
-void mirrorUpperSums(const CompatibilityGraph& structure, std::vector<float>& common) {
-  std::vector<std::int64_t> cursor(structure.offsets.begin(), structure.offsets.end() - 1);
-  for (int i = 0; i < structure.num_nodes; ++i) {
-    for (auto p = structure.offsets[i]; p < structure.offsets[i + 1]; ++p) {
-      const int j = structure.neighbours[p];
-      if (j > i) common[cursor[j]++] = common[p];
-    }
-  }
-}
-
-// The second-order graph from the common-neighbour sums of the upper edges of the first-order graph
-// `structure` (aligned with its lists; `common` is overwritten): the edges whose sum is positive, weighted
-// by S_ij * sum (Eq. 4), the lists filtered in place.
-CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure, std::vector<float>& common) {
-  mirrorUpperSums(structure, common);
-  return triangleEdgesFromSums(structure, common, 0.0f);
+// First position of node i's upper neighbours (j > i): the tail of its ascending list.
+std::int64_t upperBegin(const CompatibilityGraph& graph, int i) {
+  return std::upper_bound(graph.neighbours.begin() + graph.offsets[i],
+                          graph.neighbours.begin() + graph.offsets[i + 1], i) -
+         graph.neighbours.begin();
 }
 
 // Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (256 bins between the
@@ -585,7 +572,7 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }
   }
-  return graphOfTriangleEdges(fog, common);
+  return triangleEdgesFromSums(fog, common, 0.0f);
 }
 
 bool neighbourCountsFit(const CompatibilityGraph& graph) {
@@ -640,7 +627,6 @@ std::vector<float> countedCommonSums(const CompatibilityGraph& fog, int num_thre
       }
     }
   }
-  mirrorUpperSums(fog, common);
   return common;
 }
 
@@ -651,25 +637,53 @@ CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, i
 
 CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const std::vector<float>& common,
                                          float min_weight) {
-  return filteredGraph(
-      fog, [&](int, std::int64_t p) { return common[p] > 0.0f && fog.weights[p] * common[p] >= min_weight; },
-      [&](std::int64_t p) { return fog.weights[p] * common[p]; });
+  // As graphFromUpperRows: the kept upper entries of each row go to the tail of its list in order, and to
+  // the next lower slot of their other end (rows in ascending order fill those in ascending order).
+  const int n = fog.num_nodes;
+  const auto kept = [&](std::int64_t p) {
+    return common[p] > 0.0f && fog.weights[p] * common[p] >= min_weight;
+  };
+  std::vector<std::int64_t> upper_begin(n), lower(n, 0), upper(n, 0);
+  for (int i = 0; i < n; ++i) {
+    upper_begin[i] = upperBegin(fog, i);
+    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+      if (kept(p)) ++upper[i], ++lower[fog.neighbours[p]];
+    }
+  }
+  CompatibilityGraph graph;
+  graph.num_nodes = n;
+  graph.offsets.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) graph.offsets[i + 1] = graph.offsets[i] + lower[i] + upper[i];
+  graph.neighbours.resize(graph.offsets.back());
+  graph.weights.resize(graph.offsets.back());
+  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
+  for (int i = 0; i < n; ++i) {
+    std::int64_t at = graph.offsets[i] + lower[i];
+    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+      if (!kept(p)) continue;
+      const int j = fog.neighbours[p];
+      const float weight = fog.weights[p] * common[p];
+      graph.neighbours[at] = j, graph.weights[at++] = weight;
+      graph.neighbours[cursor[j]] = i, graph.weights[cursor[j]++] = weight;
+    }
+  }
+  return graph;
 }
 
 float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common,
                           std::size_t& edges) {
-  edges = 0;
+  // The weights gathered once, then binned in one tight pass.
+  std::vector<float> weights;
+  weights.reserve(fog.neighbours.size() / 2);
   for (int i = 0; i < fog.num_nodes; ++i) {
-    for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p)
-      edges += fog.neighbours[p] > i && common[p] > 0.0f;
+    for (auto p = upperBegin(fog, i); p < fog.offsets[i + 1]; ++p) {
+      if (common[p] > 0.0f) weights.push_back(fog.weights[p] * common[p]);
+    }
   }
+  edges = weights.size();
   return otsuThreshold(
       [&](auto visit) {
-        for (int i = 0; i < fog.num_nodes; ++i) {
-          for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p) {
-            if (fog.neighbours[p] > i && common[p] > 0.0f) visit(fog.weights[p] * common[p]);
-          }
-        }
+        for (const float w : weights) visit(w);
       },
       edges);
 }

@@ -71,8 +71,8 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, 
 CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
                                                 const StopFlag* stop = nullptr);
 
-// The estimate of buildCountedSecondOrderGraph before its graph is built: sum_k S_ik S_jk of every edge at
-// its positions in the first-order lists, both directions, 0 for an edge in no triangle.
+// The estimate of buildCountedSecondOrderGraph before its graph is built: sum_k S_ik S_jk of every edge
+// i < j at its position in i's first-order list (0 for an edge in no triangle, and at the lower ends).
 std::vector<float> countedCommonSums(const CompatibilityGraph& first_order, int num_threads,
                                      const StopFlag* stop = nullptr);
 
