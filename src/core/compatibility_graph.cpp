@@ -519,7 +519,8 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   }
   UpperRows rows;
   if (pass.within_max_edges) {
-    rows = rowsOfNodes(std::move(pass.rows), nodes, n);
+    // Unsampled, point k is node k: the rows are already the nodes'.
+    rows = result.sampled ? rowsOfNodes(std::move(pass.rows), nodes, n) : std::move(pass.rows);
   } else {
     // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
     // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
