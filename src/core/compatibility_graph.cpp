@@ -289,45 +289,93 @@ __attribute__((optimize("no-tree-slp-vectorize"))) void commonNeighbourSums(cons
   for (; next < last; ++next) out[next] = listSum(fog, row, neighbours[next]);
 }
 
-// The second-order graph from the common-neighbour sums of the upper edges of the first-order graph
-// `structure` (aligned with its lists): the edges whose sum is positive, weighted by S_ij * sum (Eq. 4).
-CompatibilityGraph graphOfTriangleEdges(const CompatibilityGraph& structure,
-                                        const std::vector<float>& common) {
-  const int n = structure.num_nodes;
-  CompatibilityGraph graph;
-  graph.num_nodes = n;
-  std::vector<std::int64_t> degree(n, 0);
-  for (int i = 0; i < n; ++i) {
-    for (auto p = structure.offsets[i]; p < structure.offsets[i + 1]; ++p) {
-      const int j = structure.neighbours[p];
-      if (j > i && common[p] > 0.0f) ++degree[i], ++degree[j];
-    }
-  }
-  graph.offsets.assign(n + 1, 0);
-  std::partial_sum(degree.begin(), degree.end(), graph.offsets.begin() + 1);
-  graph.neighbours.resize(graph.offsets.back());
-  graph.weights.resize(graph.offsets.back());
-  // As in graphFromUpperRows: rows in ascending order fill every list in ascending order.
-  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
-  for (int i = 0; i < n; ++i) {
-    for (auto p = structure.offsets[i]; p < structure.offsets[i + 1]; ++p) {
-      const int j = structure.neighbours[p];
-      if (j <= i || !(common[p] > 0.0f)) continue;
-      const float weight = structure.weights[p] * common[p];
-      graph.neighbours[cursor[i]] = j;
-      graph.weights[cursor[i]++] = weight;
-      graph.neighbours[cursor[j]] = i;
-      graph.weights[cursor[j]++] = weight;
-    }
-  }
-  return graph;
+// Neighbour sets of the nodes that have any, as bit rows over those nodes (position in `active`), each row
+// padded to whole 512-bit blocks so that the AVX-512 count needs no tail.
+struct NeighbourBits {
+  std::vector<int> position;  // of each node among the active ones, -1 for isolated nodes
+  std::size_t words = 0;      // 64-bit words per row, a multiple of 8
+  std::vector<std::uint64_t> bits;
+
+  const std::uint64_t* row(int node) const { return bits.data() + std::size_t(position[node]) * words; }
+};
+
+constexpr std::size_t kMaxNeighbourBitsBytes = std::size_t(64) << 20;
+
+std::size_t activeNodes(const CompatibilityGraph& graph) {
+  std::size_t active = 0;
+  for (int i = 0; i < graph.num_nodes; ++i) active += graph.degree(i) > 0;
+  return active;
 }
 
-// The graph with the list entries (node i, position p) that `keep` accepts. `keep` must accept an edge in
-// both of its directions or in neither; the lists stay ascending, as a filter of ascending lists. Two
-// sequential passes over the lists, where rebuilding from upper rows would scatter every edge twice.
-template <typename KeepEntry>
-CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep) {
+std::size_t wordsPerRow(std::size_t active) { return (active + 511) / 512 * 8; }
+
+NeighbourBits neighbourBits(const CompatibilityGraph& graph) {
+  NeighbourBits out;
+  out.position.assign(graph.num_nodes, -1);
+  int active = 0;
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    if (graph.degree(i) > 0) out.position[i] = active++;
+  }
+  out.words = wordsPerRow(std::size_t(active));
+  out.bits.assign(out.words * std::size_t(active), 0);
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    if (out.position[i] < 0) continue;
+    std::uint64_t* row = out.bits.data() + std::size_t(out.position[i]) * out.words;
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+      const int k = out.position[graph.neighbours[p]];
+      row[k >> 6] |= std::uint64_t(1) << (k & 63);
+    }
+  }
+  return out;
+}
+
+__attribute__((target("avx512f,avx512vpopcntdq"))) std::int64_t commonCountAvx512(const std::uint64_t* a,
+                                                                                  const std::uint64_t* b,
+                                                                                  std::size_t words) {
+  __m512i count = _mm512_setzero_si512();
+  for (std::size_t w = 0; w < words; w += 8) {
+    const __m512i both = _mm512_and_si512(_mm512_loadu_si512(a + w), _mm512_loadu_si512(b + w));
+    count = _mm512_add_epi64(count, _mm512_popcnt_epi64(both));
+  }
+// GCC 12 warns of the undefined upper half that its _mm512_reduce_add_epi64 extracts into (a false
+// positive, GCC bug 105593).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+  return _mm512_reduce_add_epi64(count);
+#pragma GCC diagnostic pop
+}
+
+__attribute__((target_clones("popcnt", "default"))) std::int64_t commonCountPortable(const std::uint64_t* a,
+                                                                                     const std::uint64_t* b,
+                                                                                     std::size_t words) {
+  std::int64_t count = 0;
+  for (std::size_t w = 0; w < words; ++w) count += __builtin_popcountll(a[w] & b[w]);
+  return count;
+}
+
+using CommonCount = std::int64_t (*)(const std::uint64_t*, const std::uint64_t*, std::size_t);
+
+CommonCount commonCountForThisCpu() {
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vpopcntdq") ? commonCountAvx512
+                                                                                        : commonCountPortable;
+}
+
+// Mean weight of each node's edges (0 for isolated nodes), in double: the same whatever the thread count.
+std::vector<double> meanEdgeWeight(const CompatibilityGraph& graph) {
+  std::vector<double> mean(graph.num_nodes, 0.0);
+  for (int i = 0; i < graph.num_nodes; ++i) {
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) mean[i] += graph.weights[p];
+    if (graph.degree(i) > 0) mean[i] /= graph.degree(i);
+  }
+  return mean;
+}
+
+// The graph with the list entries (node i, position p) that `keep` accepts, weighted by weight_of(p).
+// `keep` must accept an edge in both of its directions or in neither, and weight_of must give both the
+// same weight; the lists stay ascending, as a filter of ascending lists. Two sequential passes over the
+// lists, where rebuilding from upper rows would scatter every edge twice.
+template <typename KeepEntry, typename WeightOf>
+CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep, WeightOf weight_of) {
   const int n = graph.num_nodes;
   CompatibilityGraph out;
   out.num_nodes = n;
@@ -344,10 +392,56 @@ CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
       if (!keep(i, p)) continue;
       out.neighbours[next] = graph.neighbours[p];
-      out.weights[next++] = graph.weights[p];
+      out.weights[next++] = weight_of(p);
     }
   }
   return out;
+}
+
+template <typename KeepEntry>
+CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep) {
+  return filteredGraph(graph, keep, [&](std::int64_t p) { return graph.weights[p]; });
+}
+
+// First position of node i's upper neighbours (j > i): the tail of its ascending list.
+std::int64_t upperBegin(const CompatibilityGraph& graph, int i) {
+  return std::upper_bound(graph.neighbours.begin() + graph.offsets[i],
+                          graph.neighbours.begin() + graph.offsets[i + 1], i) -
+         graph.neighbours.begin();
+}
+
+// Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (256 bins between the
+// lightest and the heaviest): the cut that best separates them into two classes. `count` is how many.
+template <typename EachWeight>
+float otsuThreshold(EachWeight each_weight, std::size_t edges) {
+  if (edges == 0) return 0.0f;
+  float lightest = 0.0f, heaviest = 0.0f;
+  bool first = true;
+  each_weight([&](float w) {
+    lightest = first || w < lightest ? w : lightest;
+    heaviest = first || w > heaviest ? w : heaviest;
+    first = false;
+  });
+  const double low = lightest, span = double(heaviest) - low;
+  if (!(span > 0.0)) return lightest;
+  constexpr int kBins = 256;
+  std::vector<double> count(kBins, 0.0);
+  each_weight([&](float w) { count[std::min(kBins - 1, int((w - low) / span * kBins))] += 1.0; });
+  const double total = double(edges);
+  double sum_all = 0.0;
+  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
+  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
+  int best_bin = 0;
+  for (int b = 0; b < kBins - 1; ++b) {
+    below += count[b];
+    sum_below += b * count[b];
+    const double above = total - below;
+    if (below == 0.0 || above == 0.0) continue;
+    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
+    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
+    if (between > best_variance) best_variance = between, best_bin = b;
+  }
+  return float(low + span * (best_bin + 1) / kBins);
 }
 
 }  // namespace
@@ -371,16 +465,32 @@ CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vect
   std::partial_sum(degree.begin(), degree.end(), graph.offsets.begin() + 1);
   graph.neighbours.resize(graph.offsets.back());
   graph.weights.resize(graph.offsets.back());
-  // Rows in ascending order put the lower neighbours of a node (from earlier rows) before its own upper
-  // row, so every list comes out sorted without a sort.
+  // Each list is its lower neighbours (the rows that name the node) then its own row, so every list comes
+  // out sorted without a sort. The rows go to the tails in order; the lower entries are written a block of
+  // nodes at a time, walking all the rows for each block, so that the lists being written stay cached
+  // (edge by edge, every write of a dense graph would miss).
+  constexpr std::int64_t kEntriesPerBlock = 32768;
   std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
   for (int i = 0; i < num_nodes; ++i) {
-    for (const auto& e : rows[i]) {
-      graph.neighbours[cursor[i]] = e.to;
-      graph.weights[cursor[i]++] = e.weight;
-      graph.neighbours[cursor[e.to]] = i;
-      graph.weights[cursor[e.to]++] = e.weight;
+    std::int64_t at = graph.offsets[i + 1] - static_cast<std::int64_t>(rows[i].size());
+    for (const auto& e : rows[i]) graph.neighbours[at] = e.to, graph.weights[at++] = e.weight;
+  }
+  std::vector<std::size_t> next(num_nodes, 0);  // first entry of each row not yet mirrored
+  for (int block_begin = 0; block_begin < num_nodes;) {
+    int block_end = block_begin + 1;
+    while (block_end < num_nodes &&
+           graph.offsets[block_end + 1] - graph.offsets[block_begin] <= kEntriesPerBlock)
+      ++block_end;
+    for (int i = 0; i < block_end; ++i) {
+      const auto& row = rows[i];
+      std::size_t& k = next[i];
+      for (; k < row.size() && row[k].to < block_end; ++k) {
+        const int j = row[k].to;
+        graph.neighbours[cursor[j]] = i;
+        graph.weights[cursor[j]++] = row[k].weight;
+      }
     }
+    block_begin = block_end;
   }
   return graph;
 }
@@ -409,7 +519,8 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   }
   UpperRows rows;
   if (pass.within_max_edges) {
-    rows = rowsOfNodes(std::move(pass.rows), nodes, n);
+    // Unsampled, point k is node k: the rows are already the nodes'.
+    rows = result.sampled ? rowsOfNodes(std::move(pass.rows), nodes, n) : std::move(pass.rows);
   } else {
     // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
     // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
@@ -429,12 +540,13 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
 }
 
 double secondOrderWork(const CompatibilityGraph& graph) {
+  // Each upper edge (i, j) costs degree(j): node j is the upper end of its lower neighbours, the head of
+  // its ascending list. Integers below 2^53, so the double sum is exact in any order.
   double work = 0.0;
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
-      const int j = graph.neighbours[p];
-      if (j > i) work += graph.degree(j);
-    }
+  for (int j = 0; j < graph.num_nodes; ++j) {
+    const auto first = graph.neighbours.begin() + graph.offsets[j];
+    const auto lower = std::lower_bound(first, graph.neighbours.begin() + graph.offsets[j + 1], j) - first;
+    work += double(lower) * graph.degree(j);
   }
   return work;
 }
@@ -461,7 +573,120 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }
   }
-  return graphOfTriangleEdges(fog, common);
+  return triangleEdgesFromSums(fog, common, 0.0f);
+}
+
+bool neighbourCountsFit(const CompatibilityGraph& graph) {
+  const std::size_t active = activeNodes(graph);
+  return double(active) * double(wordsPerRow(active)) * 8.0 <= double(kMaxNeighbourBitsBytes);
+}
+
+double countedSecondOrderWork(const CompatibilityGraph& graph) {
+  return double(graph.numEdges()) * double(wordsPerRow(activeNodes(graph)));
+}
+
+std::vector<float> countedCommonSums(const CompatibilityGraph& fog, int num_threads, const StopFlag* stop) {
+  // The bit rows of all the nodes exceed L2 (640 bytes each at N = 5000, 3 MB in all), and a chance
+  // graph's rows reach almost every node: rows are taken in chunks of kRowsPerChunk, and each chunk's
+  // edges column block by column block, so that the chunk and one block stay cached (160 + 128 KB at
+  // N = 5000) and each column row is fetched once per chunk, not once per edge.
+  constexpr int kRowsPerChunk = 256;
+  constexpr std::size_t kColumnBlockBytes = std::size_t(128) << 10;
+  const int n = fog.num_nodes;
+  const NeighbourBits bits = neighbourBits(fog);
+  const std::vector<double> mean = meanEdgeWeight(fog);
+  static const CommonCount count = commonCountForThisCpu();
+  const int columns = static_cast<int>(
+      std::max<std::size_t>(64, kColumnBlockBytes / (8 * std::max<std::size_t>(bits.words, 1))));
+  std::vector<float> common(fog.neighbours.size(), 0.0f);
+  const int chunks = (n + kRowsPerChunk - 1) / kRowsPerChunk;
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::int64_t cursor[kRowsPerChunk];
+#pragma omp for schedule(dynamic, 1)
+    for (int chunk = 0; chunk < chunks; ++chunk) {
+      if (stopRequested(stop)) continue;
+      const int first = chunk * kRowsPerChunk, last = std::min(n, first + kRowsPerChunk);
+      for (int i = first; i < last; ++i) {  // the upper edges of i are the tail of its ascending list
+        cursor[i - first] = std::upper_bound(fog.neighbours.begin() + fog.offsets[i],
+                                             fog.neighbours.begin() + fog.offsets[i + 1], i) -
+                            fog.neighbours.begin();
+      }
+      for (int block_end = (first / columns + 1) * columns;; block_end += columns) {
+        bool more = false;
+        for (int i = first; i < last; ++i) {
+          std::int64_t& p = cursor[i - first];
+          const std::int64_t end = fog.offsets[i + 1];
+          for (; p < end && fog.neighbours[p] < block_end; ++p) {
+            const int j = fog.neighbours[p];
+            const std::int64_t shared = count(bits.row(i), bits.row(j), bits.words);
+            common[p] = static_cast<float>(double(shared) * mean[i] * mean[j]);
+          }
+          more = more || p < end;
+        }
+        if (!more) break;
+      }
+    }
+  }
+  return common;
+}
+
+CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
+                                                const StopFlag* stop) {
+  return triangleEdgesFromSums(fog, countedCommonSums(fog, num_threads, stop), 0.0f);
+}
+
+CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const std::vector<float>& common,
+                                         float min_weight) {
+  // As graphFromUpperRows: the kept upper entries of each row go to the tail of its list in order, and to
+  // the next lower slot of their other end (rows in ascending order fill those in ascending order).
+  const int n = fog.num_nodes;
+  const auto kept = [&](std::int64_t p) {
+    return common[p] > 0.0f && fog.weights[p] * common[p] >= min_weight;
+  };
+  std::vector<std::int64_t> upper_begin(n), lower(n, 0), upper(n, 0);
+  for (int i = 0; i < n; ++i) {
+    upper_begin[i] = upperBegin(fog, i);
+    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+      if (kept(p)) ++upper[i], ++lower[fog.neighbours[p]];
+    }
+  }
+  CompatibilityGraph graph;
+  graph.num_nodes = n;
+  graph.offsets.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) graph.offsets[i + 1] = graph.offsets[i] + lower[i] + upper[i];
+  graph.neighbours.resize(graph.offsets.back());
+  graph.weights.resize(graph.offsets.back());
+  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
+  for (int i = 0; i < n; ++i) {
+    std::int64_t at = graph.offsets[i] + lower[i];
+    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+      if (!kept(p)) continue;
+      const int j = fog.neighbours[p];
+      const float weight = fog.weights[p] * common[p];
+      graph.neighbours[at] = j, graph.weights[at++] = weight;
+      graph.neighbours[cursor[j]] = i, graph.weights[cursor[j]++] = weight;
+    }
+  }
+  return graph;
+}
+
+float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common,
+                          std::size_t& edges) {
+  // The weights gathered once, then binned in one tight pass.
+  std::vector<float> weights;
+  weights.reserve(fog.neighbours.size() / 2);
+  for (int i = 0; i < fog.num_nodes; ++i) {
+    for (auto p = upperBegin(fog, i); p < fog.offsets[i + 1]; ++p) {
+      if (common[p] > 0.0f) weights.push_back(fog.weights[p] * common[p]);
+    }
+  }
+  edges = weights.size();
+  return otsuThreshold(
+      [&](auto visit) {
+        for (const float w : weights) visit(w);
+      },
+      edges);
 }
 
 double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
@@ -497,28 +722,17 @@ std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t c
 }
 
 float otsuEdgeThreshold(const CompatibilityGraph& graph) {
-  if (graph.weights.empty()) return 0.0f;
-  const auto [lightest, heaviest] = std::minmax_element(graph.weights.begin(), graph.weights.end());
-  const double low = *lightest, span = double(*heaviest) - low;
-  if (!(span > 0.0)) return *lightest;
-  constexpr int kBins = 256;
-  std::vector<double> count(kBins, 0.0);
-  for (float w : graph.weights) count[std::min(kBins - 1, int((w - low) / span * kBins))] += 1.0;
-  const double total = double(graph.weights.size());
-  double sum_all = 0.0;
-  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
-  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
-  int best_bin = 0;
-  for (int b = 0; b < kBins - 1; ++b) {
-    below += count[b];
-    sum_below += b * count[b];
-    const double above = total - below;
-    if (below == 0.0 || above == 0.0) continue;
-    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
-    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
-    if (between > best_variance) best_variance = between, best_bin = b;
-  }
-  return float(low + span * (best_bin + 1) / kBins);
+  // Each edge once, from its lower end: every count, sum and product is then exactly half (or a quarter)
+  // of the one over both directions, and the cut is the same.
+  return otsuThreshold(
+      [&](auto visit) {
+        for (int i = 0; i < graph.num_nodes; ++i) {
+          for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
+            if (graph.neighbours[p] > i) visit(graph.weights[p]);
+          }
+        }
+      },
+      graph.numEdges());
 }
 
 CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold) {

@@ -109,6 +109,21 @@ std::vector<int> HypothesisEvaluator::inliers(const Eigen::Isometry3d& T) const 
   return indices;
 }
 
+void HypothesisEvaluator::inlierWeights(const Eigen::Isometry3d& T, double scale, std::vector<int>& indices,
+                                        std::vector<double>& weights) const {
+  const CentredTransform m(T, source_centroid_, target_centroid_);
+  const float tau = float(params_.inlier_threshold), tau2 = tau * tau;
+  indices.clear();
+  weights.assign(sx_.size(), 0.0);
+  for (std::size_t i = 0; i < sx_.size(); ++i) {
+    const float r2 = residualSquared(m, i);
+    if (!(r2 < tau2)) continue;
+    const double scaled = std::sqrt(double(r2)) / scale;
+    indices.push_back(static_cast<int>(i));
+    weights[i] = 1.0 / (1.0 + scaled * scaled);
+  }
+}
+
 int bestHypothesis(const std::vector<HypothesisScore>& scores) {
   int best = -1;
   for (std::size_t h = 0; h < scores.size(); ++h) {

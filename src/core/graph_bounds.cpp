@@ -30,11 +30,41 @@ BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const
   return out;
 }
 
+namespace {
+
+bool denserThan(const CompatibilityGraph& graph, double mean_degree) {
+  return mean_degree > 0.0 && graph.num_nodes > 0 &&
+         2.0 * double(graph.numEdges()) / graph.num_nodes > mean_degree;
+}
+
+}  // namespace
+
+SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order, double dense_mean_degree,
+                                          int num_threads, const StopFlag* stop) {
+  // One 512-bit AND and popcount (eight words) costs about two random-access multiply-adds of the exact sum.
+  constexpr double kWordsPerMultiplyAdd = 4.0;
+  SecondOrderOutcome out;
+  out.counted = denserThan(first_order, dense_mean_degree) && neighbourCountsFit(first_order) &&
+                countedSecondOrderWork(first_order) / kWordsPerMultiplyAdd < secondOrderWork(first_order);
+  if (!out.counted) {
+    out.pruned = pruneDenseGraph(buildSecondOrderGraph(first_order, num_threads, stop), dense_mean_degree);
+    return out;
+  }
+  const std::vector<float> common = countedCommonSums(first_order, num_threads, stop);
+  std::size_t edges = 0;
+  const float threshold = otsuThresholdOfSums(first_order, common, edges);
+  // pruneDenseGraph's test, on the second-order graph's edge count.
+  const bool dense =
+      first_order.num_nodes > 0 && 2.0 * double(edges) / first_order.num_nodes > dense_mean_degree;
+  out.pruned.graph = triangleEdgesFromSums(first_order, common, dense ? threshold : 0.0f);
+  out.pruned.reduced = dense;
+  out.pruned.removed_edges = dense ? edges - out.pruned.graph.numEdges() : 0;
+  return out;
+}
+
 BoundedGraph pruneDenseGraph(CompatibilityGraph graph, double dense_mean_degree) {
   BoundedGraph out;
-  const bool dense = dense_mean_degree > 0.0 && graph.num_nodes > 0 &&
-                     2.0 * double(graph.numEdges()) / graph.num_nodes > dense_mean_degree;
-  if (!dense) {
+  if (!denserThan(graph, dense_mean_degree)) {
     out.graph = std::move(graph);
     return out;
   }

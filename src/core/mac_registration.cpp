@@ -233,6 +233,7 @@ CompatibilityGraph firstOrderStage(const CorrespondenceSet& c, const MacParams& 
 CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& params, int threads,
                                     const StopFlag* stop, MacResult& result) {
   const auto start = Clock::now();
+  BoundedGraph pruned;
   if (params.graph.second_order) {
     BoundedGraph bounded = boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, stop);
     if (bounded.reduced) {
@@ -242,9 +243,11 @@ CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& p
           "graph too dense for the second-order budget (graph.max_second_order_work): kept the " +
           std::to_string(bounded.kept_nodes) + " correspondences of highest degree");
     }
-    graph = stopRequested(stop) ? CompatibilityGraph{} : buildSecondOrderGraph(bounded.graph, threads, stop);
+    if (!stopRequested(stop))
+      pruned = prunedSecondOrderGraph(bounded.graph, params.graph.dense_mean_degree, threads, stop).pruned;
+  } else {
+    pruned = pruneDenseGraph(std::move(graph), params.graph.dense_mean_degree);
   }
-  BoundedGraph pruned = pruneDenseGraph(std::move(graph), params.graph.dense_mean_degree);
   result.counters.pruned_weak_edges = pruned.removed_edges;
   result.counters.graph_edges = pruned.graph.numEdges();
   result.times.second_order_ms = millisecondsSince(start);

@@ -12,12 +12,14 @@ RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const Hypoth
   best.T_target_source = initial;
   best.score = initial_score;
   const double tau = evaluation.inlier_threshold;
+  // Grown once, reused every round.
+  std::vector<int> inliers;
+  std::vector<double> weights;
+  inliers.reserve(evaluator.size());
+  weights.reserve(evaluator.size());
   for (int round = 0; round < params.max_iterations && !stopRequested(stop); ++round) {
     best.iterations = round + 1;
-    const std::vector<int> inliers = evaluator.inliers(best.T_target_source);
-    const std::vector<double> residuals = evaluator.residuals(best.T_target_source);
-    std::vector<double> weights(residuals.size(), 0.0);
-    for (int i : inliers) weights[i] = 1.0 / (1.0 + (residuals[i] / tau) * (residuals[i] / tau));
+    evaluator.inlierWeights(best.T_target_source, tau, inliers, weights);
     const auto candidate = estimateRigidTransform(correspondences, inliers, weights);
     if (!candidate) break;
     const HypothesisScore score = evaluator.score(*candidate);

@@ -2,11 +2,13 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/graph_bounds.hpp"
 
 namespace mac_registration {
 namespace {
@@ -389,6 +391,108 @@ TEST(SecondOrderGraph, BitIdenticalToTheDenseSum) {
   }
 }
 
+// The counted estimate straight from a dense matrix: c_ij common neighbours counted one k at a time, m_i
+// the mean of row i's weights summed in ascending order in double, w_ij = S_ij * float(c_ij m_i m_j).
+CompatibilityGraph denseCountedSecondOrder(const CompatibilityGraph& fog) {
+  const int n = fog.num_nodes;
+  std::vector<float> s(std::size_t(n) * n, 0.0f);
+  std::vector<double> mean(n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p) {
+      s[std::size_t(i) * n + fog.neighbours[p]] = fog.weights[p];
+      mean[i] += fog.weights[p];
+    }
+    if (fog.degree(i) > 0) mean[i] /= fog.degree(i);
+  }
+  std::vector<std::vector<UpperEdge>> rows(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const float s_ij = s[std::size_t(i) * n + j];
+      if (s_ij == 0.0f) continue;
+      int shared = 0;
+      for (int k = 0; k < n; ++k)
+        shared += s[std::size_t(i) * n + k] != 0.0f && s[std::size_t(j) * n + k] != 0.0f;
+      if (shared > 0) rows[i].push_back({j, s_ij * static_cast<float>(shared * mean[i] * mean[j])});
+    }
+  }
+  return graphFromUpperRows(n, rows);
+}
+
+// Weights in [t, 1], as the first-order graph's are in [t_cmp, 1].
+CompatibilityGraph randomGraphWithWeightsFrom(int n, double density, float t, unsigned seed) {
+  CompatibilityGraph g = randomWeightedGraph(n, density, seed);
+  for (float& w : g.weights) w = t + (1.0f - t) * (w - 0.5f) * 2.0f;  // 0.5 + 0.5 u -> t + (1 - t) u
+  return g;
+}
+
+// The popcounts over bit rows (AVX-512 or portable, with isolated nodes left out of the rows and rows of
+// 1 to several 512-bit blocks) must count exactly the common neighbours; the estimate is the counted
+// formula bit for bit, on the exact graph's edges, within t^2 of the exact weights, whatever the threads.
+TEST(SecondOrderGraph, CountedWeightsMatchTheDenseCount) {
+  const float t = 0.99f;
+  for (const int n : {60, 700, 1100}) {
+    for (const double density : {0.02, 0.3}) {
+      CompatibilityGraph fog = randomGraphWithWeightsFrom(n, density, t, 5);
+      fog = keepNodes(fog, std::vector<char>(n, 1));
+      std::vector<char> keep(n, 1);
+      for (int i = 0; i < n; i += 7) keep[i] = 0;  // isolated nodes between active ones
+      fog = keepNodes(fog, keep);
+      const CompatibilityGraph expected = denseCountedSecondOrder(fog);
+      const CompatibilityGraph exact = buildSecondOrderGraph(fog, 1);
+      for (const int threads : {1, 2}) {
+        const CompatibilityGraph counted = buildCountedSecondOrderGraph(fog, threads);
+        const std::string where = "n " + std::to_string(n) + ", density " + std::to_string(density) + ", " +
+                                  std::to_string(threads) + " threads";
+        expectValidGraph(counted);
+        EXPECT_EQ(counted.offsets, expected.offsets) << where;
+        EXPECT_EQ(counted.neighbours, expected.neighbours) << where;
+        EXPECT_EQ(counted.weights, expected.weights) << where;
+        ASSERT_EQ(counted.neighbours, exact.neighbours) << where;
+        for (std::size_t q = 0; q < exact.weights.size(); ++q) {
+          EXPECT_GE(counted.weights[q], exact.weights[q] * t * t * 0.9999f) << where;
+          EXPECT_LE(counted.weights[q] * t * t, exact.weights[q] * 1.0001f) << where;
+        }
+      }
+    }
+  }
+}
+
+void expectSameGraph(const CompatibilityGraph& a, const CompatibilityGraph& b, const std::string& where) {
+  EXPECT_EQ(a.num_nodes, b.num_nodes) << where;
+  EXPECT_EQ(a.offsets, b.offsets) << where;
+  EXPECT_EQ(a.neighbours, b.neighbours) << where;
+  EXPECT_EQ(a.weights, b.weights) << where;
+}
+
+// Sparse first-order graphs keep the exact sums; above dense_mean_degree the counts take over, and 0
+// turns them off. Either way the graph is the second-order graph cut by pruneDenseGraph, bit for bit,
+// though the counted one is cut before it is built.
+TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
+  const CompatibilityGraph sparse = randomGraphWithWeightsFrom(1500, 0.01, 0.99f, 2);  // mean degree ~15
+  const SecondOrderOutcome exact = prunedSecondOrderGraph(sparse, 50.0, 2);
+  EXPECT_FALSE(exact.counted);
+  EXPECT_FALSE(exact.pruned.reduced);
+  expectSameGraph(exact.pruned.graph, buildSecondOrderGraph(sparse, 1), "sparse");
+
+  for (const double density : {0.05, 0.1, 0.3}) {
+    const std::string where = "density " + std::to_string(density);
+    const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, density, 0.99f, 2);  // degree 75-450
+    const SecondOrderOutcome counted = prunedSecondOrderGraph(dense, 50.0, 2);
+    const BoundedGraph afterwards = pruneDenseGraph(buildCountedSecondOrderGraph(dense, 1), 50.0);
+    EXPECT_TRUE(counted.counted) << where;
+    ASSERT_TRUE(afterwards.reduced) << where;
+    EXPECT_TRUE(counted.pruned.reduced) << where;
+    EXPECT_GT(afterwards.removed_edges, 0u) << where;
+    EXPECT_EQ(counted.pruned.removed_edges, afterwards.removed_edges) << where;
+    expectSameGraph(counted.pruned.graph, afterwards.graph, where);
+  }
+  const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, 0.1, 0.99f, 2);
+  const SecondOrderOutcome off = prunedSecondOrderGraph(dense, 0.0, 2);
+  EXPECT_FALSE(off.counted);
+  EXPECT_FALSE(off.pruned.reduced);
+  expectSameGraph(off.pruned.graph, buildSecondOrderGraph(dense, 1), "dense_mean_degree 0");
+}
+
 TEST(CompatibilityGraph, KeepNodes) {
   const CompatibilityGraph kept = keepNodes(twoTrianglesAndPendant(), {0, 1, 1, 1, 0});
   expectValidGraph(kept);
@@ -518,6 +622,41 @@ TEST(CompatibilityGraph, OtsuThresholdSeparatesLightFromHeavyEdges) {
   EXPECT_EQ(otsuEdgeThreshold(flat), 0.5f);
   EXPECT_EQ(withoutWeakEdges(flat, otsuEdgeThreshold(flat)).numEdges(), 3u);
   EXPECT_EQ(otsuEdgeThreshold(graphFromUpperRows(2, {{}, {}})), 0.0f);
+}
+
+// Otsu's cut as defined: a 256-bin histogram of every stored weight (each edge twice) and the bin that
+// maximises the between-class variance. The graph's cut counts each edge once and must agree exactly.
+float otsuOverBothDirections(const CompatibilityGraph& g) {
+  const auto [lo, hi] = std::minmax_element(g.weights.begin(), g.weights.end());
+  const double low = *lo, span = double(*hi) - low;
+  if (!(span > 0.0)) return *lo;
+  std::vector<double> count(256, 0.0);
+  for (float w : g.weights) count[std::min(255, int((w - low) / span * 256))] += 1.0;
+  double sum_all = 0.0, below = 0.0, sum_below = 0.0, best = -1.0;
+  for (int b = 0; b < 256; ++b) sum_all += b * count[b];
+  int best_bin = 0;
+  for (int b = 0; b < 255; ++b) {
+    below += count[b];
+    sum_below += b * count[b];
+    const double above = double(g.weights.size()) - below;
+    if (below == 0.0 || above == 0.0) continue;
+    const double d = sum_below / below - (sum_all - sum_below) / above;
+    if (below * above * d * d > best) best = below * above * d * d, best_bin = b;
+  }
+  return float(low + span * (best_bin + 1) / 256);
+}
+
+TEST(CompatibilityGraph, OtsuThresholdAndWorkMatchTheirDefinitions) {
+  for (const unsigned seed : {1u, 2u, 3u, 4u}) {
+    const CompatibilityGraph g = buildSecondOrderGraph(randomWeightedGraph(300, 0.05 * seed, seed), 1);
+    EXPECT_EQ(otsuEdgeThreshold(g), otsuOverBothDirections(g)) << "seed " << seed;
+    double work = 0.0;
+    for (int i = 0; i < g.num_nodes; ++i) {
+      for (auto p = g.offsets[i]; p < g.offsets[i + 1]; ++p)
+        work += g.neighbours[p] > i ? g.degree(g.neighbours[p]) : 0;
+    }
+    EXPECT_EQ(secondOrderWork(g), work) << "seed " << seed;
+  }
 }
 
 }  // namespace

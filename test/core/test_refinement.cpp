@@ -144,5 +144,66 @@ TEST(RefineTransformAlone, WorseRefitIsRejected) {
   EXPECT_EQ(out.score.score, initial_score.score);
 }
 
+// The refinement as specified, each round from fresh vectors: inliers(), residuals() and the weights
+// 1 / (1 + (r / tau)^2) on the inliers. The refinement's reused buffers must give the same rounds, bit
+// for bit.
+RefinementOutcome refinedFromFreshVectors(const Eigen::Isometry3d& initial, const CorrespondenceSet& c,
+                                          const HypothesisEvaluator& evaluator, double tau, int rounds) {
+  RefinementOutcome best{initial, evaluator.score(initial), 0, 0};
+  for (int round = 0; round < rounds; ++round) {
+    best.iterations = round + 1;
+    const std::vector<int> inliers = evaluator.inliers(best.T_target_source);
+    const std::vector<double> residuals = evaluator.residuals(best.T_target_source);
+    std::vector<double> weights(residuals.size(), 0.0);
+    for (int i : inliers) weights[i] = 1.0 / (1.0 + (residuals[i] / tau) * (residuals[i] / tau));
+    const auto candidate = estimateRigidTransform(c, inliers, weights);
+    if (!candidate) break;
+    const HypothesisScore score = evaluator.score(*candidate);
+    if (!(score.score > best.score.score)) break;
+    best.T_target_source = *candidate;
+    best.score = score;
+    ++best.improvements;
+  }
+  return best;
+}
+
+TEST_F(RefineTransform, SameRoundsAsFreshVectorsEachRound) {
+  for (const double angle : {0.0, 0.02, 0.05}) {
+    const Eigen::Isometry3d initial = kTruth *
+                                      Eigen::AngleAxisd(angle, Eigen::Vector3d(1, 1, 0).normalized()) *
+                                      Eigen::Translation3d(0.01, 0, 0);
+    const RefinementOutcome expected =
+        refinedFromFreshVectors(initial, c, evaluator, evaluation.inlier_threshold, params.max_iterations);
+    EXPECT_GE(expected.improvements, 1) << "angle " << angle;  // rounds that reweight a moved pose
+    const RefinementOutcome got = refine(initial);
+    EXPECT_EQ(got.iterations, expected.iterations) << "angle " << angle;
+    EXPECT_EQ(got.improvements, expected.improvements) << "angle " << angle;
+    EXPECT_EQ(got.score.score, expected.score.score) << "angle " << angle;
+    EXPECT_EQ(got.T_target_source.matrix(), expected.T_target_source.matrix()) << "angle " << angle;
+  }
+}
+
+TEST(HypothesisEvaluatorWeights, InlierWeightsMatchInliersAndResiduals) {
+  CorrespondenceSet c;
+  c.source_points = Eigen::Matrix3Xd::Random(3, 300);
+  c.target_points = c.source_points + 0.08 * Eigen::Matrix3Xd::Random(3, 300);
+  EvaluationParams p;
+  p.inlier_threshold = 0.1;
+  const HypothesisEvaluator e(c, p);
+  const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  std::vector<int> indices = {7, 8};  // stale content is replaced
+  std::vector<double> weights(5, 3.0);
+  e.inlierWeights(T, 0.07, indices, weights);
+  EXPECT_EQ(indices, e.inliers(T));
+  ASSERT_GT(indices.size(), 10u);
+  ASSERT_LT(indices.size(), 300u);
+  const std::vector<double> r = e.residuals(T);
+  ASSERT_EQ(weights.size(), 300u);
+  std::vector<char> inlier(300, 0);
+  for (int i : indices) inlier[i] = 1;
+  for (int i = 0; i < 300; ++i)
+    EXPECT_EQ(weights[i], inlier[i] ? 1.0 / (1.0 + (r[i] / 0.07) * (r[i] / 0.07)) : 0.0) << "i = " << i;
+}
+
 }  // namespace
 }  // namespace mac_registration

@@ -26,6 +26,12 @@ class HypothesisEvaluator {
   // Indices whose residual is below tau, and the residuals of all correspondences.
   std::vector<int> inliers(const Eigen::Isometry3d& T_target_source) const;
   std::vector<double> residuals(const Eigen::Isometry3d& T_target_source) const;
+  // inliers() into `indices` and, for each of them, the refinement's weight 1 / (1 + (r / scale)^2) with r
+  // as residuals() gives it and scale in m, into `weights` (0 for the others; resized to size()). One
+  // pass, and no allocation once the vectors have grown: the refinement calls it every round.
+  void inlierWeights(const Eigen::Isometry3d& T_target_source, double scale, std::vector<int>& indices,
+                     std::vector<double>& weights) const;
+  std::size_t size() const { return sx_.size(); }
 
  private:
   // The transform acting on centred points: R (s - cs) + (R cs + t - ct) is compared with (t_i - ct).

@@ -24,6 +24,23 @@ struct BoundedGraph {
 // round until it fits.
 BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop = nullptr);
 
+// The second-order graph of `first_order` after pruneDenseGraph's cut, and whether its weights are the
+// counted estimate.
+struct SecondOrderOutcome {
+  BoundedGraph pruned;
+  bool counted = false;
+};
+
+// The second-order weights, then pruneDenseGraph(graph, dense_mean_degree). A first-order graph with a
+// higher mean degree than dense_mean_degree (chance compatibilities among many outliers) gets the counted
+// weights of buildCountedSecondOrderGraph when they cost less than the exact sums and their bitsets fit:
+// the cut that follows on such graphs only needs the light chance edges told from the heavy consensus
+// ones, and is made before the graph of all the counted weights is built (the same graph, bit for bit,
+// as cutting it afterwards). Sparser graphs (real FPFH matches) keep the exact sums of
+// buildSecondOrderGraph. dense_mean_degree 0: exact sums, no cut.
+SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order, double dense_mean_degree,
+                                          int num_threads, const StopFlag* stop = nullptr);
+
 // graph.dense_mean_degree: a graph with a higher mean degree loses its edges below Otsu's threshold of the
 // weights (chance compatibilities between outliers are light, a consensus set's edges heavy); 0 = never.
 BoundedGraph pruneDenseGraph(CompatibilityGraph graph, double dense_mean_degree);

@@ -40,7 +40,9 @@ struct GraphParams {
   // higher mean degree, its edges below Otsu's threshold of the edge weights are removed first. Dense
   // graphs come from many outliers that are compatible by chance; their edges have few common neighbours
   // and light second-order weights, while a consensus set's edges are heavy. (The MAC authors' code prunes
-  // dense graphs too, by clustering coefficient.)
+  // dense graphs too, by clustering coefficient.) The same bound picks the second-order weights: a
+  // first-order graph above it gets them estimated from common-neighbour counts, within a factor t_cmp^2
+  // of Eq. 4's sums (buildCountedSecondOrderGraph), a sparser one the exact sums.
   double dense_mean_degree = 50.0;
 };
 
