@@ -74,6 +74,13 @@ void throwIfInvalid(const FeatureParams& params) {
   throw std::invalid_argument(message);
 }
 
+// The cloud's own descriptor index while it still indexes its descriptors, else a new one for this match.
+std::shared_ptr<const DescriptorIndex> indexOf(const DescribedCloud& cloud) {
+  if (cloud.descriptor_index && cloud.descriptor_index->descriptors() == cloud.descriptors)
+    return cloud.descriptor_index;
+  return std::make_shared<const DescriptorIndex>(cloud.descriptors);
+}
+
 }  // namespace
 
 bool resolutionNeeded(const FeatureParams& params) { return params.gaussian_sigma_resolutions > 0.0; }
@@ -145,6 +152,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
   out.keypoints = subset(*voxels, usable);
   out.normals = subset(*kept_normals, usable);
   out.descriptors = subset(*descriptors, usable);
+  out.descriptor_index = std::make_shared<const DescriptorIndex>(out.descriptors);
   out.no_feature = out.voxels - usable.size();
   out.features_ms = millisecondsSince(start);
   return out;
@@ -175,7 +183,7 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
 
   const auto start = Clock::now();
   MatchingStats matching;
-  const std::vector<FeatureMatch> matches = matchFeatures(s.descriptors, t.descriptors, params, matching);
+  const std::vector<FeatureMatch> matches = matchFeatures(*indexOf(s), *indexOf(t), params, matching);
   stats.rejected_mutual = matching.rejected_mutual;
   stats.rejected_ratio = matching.rejected_ratio;
   stats.truncated = matching.truncated;

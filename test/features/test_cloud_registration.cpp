@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 #include <pcl/features/fpfh.h>
 #include <pcl/features/fpfh_omp.h>
+#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/search/kdtree.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <thread>
 #include <vector>
 
 #include "mac_registration/core/pose_error.hpp"
@@ -427,6 +429,161 @@ TEST(ResolutionUnits, ScaleTheGaussianSigmaOnlyWhenAsked) {
   features.gaussian_sigma_resolutions = 10.0;
   EXPECT_DOUBLE_EQ(withResolutionUnits(mac, features, 0.01).graph.gaussian_sigma, 0.1);
   EXPECT_EQ(withResolutionUnits(mac, features, 0.0).graph.gaussian_sigma, 0.05);  // no resolution known
+}
+
+// What matching did before the descriptor index: a new tree over each side for every match, and every
+// target descriptor searched for the mutual check. The oracle the indexed matching is held to.
+std::vector<FeatureMatch> matchesWithFreshTrees(const FpfhCloud::ConstPtr& source,
+                                                const FpfhCloud::ConstPtr& target,
+                                                const FeatureParams& params, MatchingStats& stats) {
+  stats = MatchingStats{};
+  const auto nearest = [&](const FpfhCloud& queries, const FpfhCloud::ConstPtr& reference, int k) {
+    pcl::KdTreeFLANN<pcl::FPFHSignature33> tree;
+    tree.setEpsilon(static_cast<float>(params.match_epsilon));
+    tree.setInputCloud(reference);
+    std::vector<std::pair<pcl::Indices, std::vector<float>>> found(queries.size());
+    for (std::size_t q = 0; q < queries.size(); ++q) {
+      found[q].first.resize(k);
+      found[q].second.resize(k);
+      const int n = tree.nearestKSearch(queries[q], k, found[q].first, found[q].second);
+      found[q].first.resize(n);
+      found[q].second.resize(n);
+    }
+    return found;
+  };
+  const bool ratio = params.ratio_test > 0.0;
+  const auto forward = nearest(*source, target, ratio ? 2 : 1);
+  const auto backward = params.mutual_filter ? nearest(*target, source, 1) : decltype(forward){};
+  std::vector<FeatureMatch> matches;
+  for (int s = 0; s < static_cast<int>(forward.size()); ++s) {
+    const auto& [indices, squared] = forward[s];
+    if (indices.empty()) continue;
+    if (params.mutual_filter && backward[indices[0]].first[0] != s) {
+      ++stats.rejected_mutual;
+      continue;
+    }
+    const float distance = std::sqrt(squared[0]);
+    if (ratio && indices.size() > 1 && !(distance < params.ratio_test * std::sqrt(squared[1]))) {
+      ++stats.rejected_ratio;
+      continue;
+    }
+    matches.push_back({s, indices[0], distance});
+  }
+  std::stable_sort(matches.begin(), matches.end(),
+                   [](const FeatureMatch& a, const FeatureMatch& b) { return a.distance < b.distance; });
+  if (matches.size() > params.max_correspondences) {
+    stats.truncated = matches.size() - params.max_correspondences;
+    matches.resize(params.max_correspondences);
+  }
+  return matches;
+}
+
+void expectSameMatches(const std::vector<FeatureMatch>& expected, const std::vector<FeatureMatch>& actual) {
+  ASSERT_EQ(actual.size(), expected.size());
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    ASSERT_EQ(actual[k].source, expected[k].source) << k;
+    ASSERT_EQ(actual[k].target, expected[k].target) << k;
+    ASSERT_EQ(actual[k].distance, expected[k].distance) << k;  // bit for bit, not nearly
+  }
+}
+
+// The search settings the indexed matching is compared on: exact and eps 1, with and without the mutual
+// check, and the ratio test (two neighbours a query) with it.
+std::vector<FeatureParams> matchingSettings() {
+  std::vector<FeatureParams> settings;
+  for (const double epsilon : {0.0, 1.0}) {
+    for (const bool mutual : {false, true}) {
+      FeatureParams p;
+      p.match_epsilon = epsilon;
+      p.mutual_filter = mutual;
+      settings.push_back(p);
+    }
+    FeatureParams p;
+    p.match_epsilon = epsilon;
+    p.mutual_filter = true;
+    p.ratio_test = 0.9;
+    settings.push_back(p);
+  }
+  return settings;
+}
+
+TEST(RealPair, OneDescriptorIndexServesEveryMatchWithTheMatchesOfFreshTrees) {
+  const RealPair& pair = realPair();
+  const DescribedCloud s = describeCloud(*pair.source, FeatureParams{}, "source");
+  const DescribedCloud t = describeCloud(*pair.target, FeatureParams{}, "target");
+  ASSERT_TRUE(t.descriptor_index);
+  EXPECT_FALSE(t.descriptor_index->built());  // built by the first match, not by the description
+  bool some_rejected_mutual = false;
+  // The same two indices for every setting: the epsilon of one match does not stick to the next.
+  for (const FeatureParams& params : matchingSettings()) {
+    SCOPED_TRACE("epsilon " + std::to_string(params.match_epsilon) + ", mutual " +
+                 std::to_string(params.mutual_filter) + ", ratio " + std::to_string(params.ratio_test));
+    MatchingStats fresh_stats, indexed_stats;
+    const auto fresh = matchesWithFreshTrees(s.descriptors, t.descriptors, params, fresh_stats);
+    const auto indexed = matchFeatures(*s.descriptor_index, *t.descriptor_index, params, indexed_stats);
+    expectSameMatches(fresh, indexed);
+    EXPECT_EQ(indexed_stats.rejected_mutual, fresh_stats.rejected_mutual);
+    EXPECT_EQ(indexed_stats.rejected_ratio, fresh_stats.rejected_ratio);
+    EXPECT_EQ(indexed_stats.truncated, fresh_stats.truncated);
+    some_rejected_mutual |= fresh_stats.rejected_mutual > 0;
+    // The described clouds' path uses their indices: the same correspondences.
+    const FeatureCorrespondences c = matchDescribedClouds(s, t, params);
+    ASSERT_EQ(c.source_indices.size(), fresh.size());
+    for (std::size_t k = 0; k < fresh.size(); ++k) {
+      ASSERT_EQ(c.source_indices[k], fresh[k].source);
+      ASSERT_EQ(c.target_indices[k], fresh[k].target);
+    }
+  }
+  EXPECT_TRUE(some_rejected_mutual);  // else the mutual settings would test nothing
+  EXPECT_TRUE(t.descriptor_index->built());
+}
+
+TEST(RealPair, ConcurrentMatchesAgainstOneDescribedTargetShareItsIndex) {
+  const RealPair& pair = realPair();
+  FeatureParams params;
+  params.mutual_filter = true;  // both sides' indices searched
+  params.num_threads = 1;
+  const DescribedCloud s = describeCloud(*pair.source, params, "source");
+  const DescribedCloud t = describeCloud(*pair.target, params, "target");
+  MatchingStats stats;
+  const auto expected = matchesWithFreshTrees(s.descriptors, t.descriptors, params, stats);
+  // Copies of the described clouds (what the node caches and hands out) share the unbuilt indices; the
+  // matches race to build them and then search them together.
+  constexpr int kMatches = 4;
+  std::vector<FeatureCorrespondences> results(kMatches);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kMatches; ++i) {
+    threads.emplace_back([&, i] {
+      const DescribedCloud source_copy = s, target_copy = t;
+      results[i] = matchDescribedClouds(source_copy, target_copy, params);
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  EXPECT_TRUE(t.descriptor_index->built());
+  EXPECT_TRUE(s.descriptor_index->built());
+  for (const FeatureCorrespondences& c : results) {
+    ASSERT_EQ(c.source_indices.size(), expected.size());
+    for (std::size_t k = 0; k < expected.size(); ++k) {
+      ASSERT_EQ(c.source_indices[k], expected[k].source);
+      ASSERT_EQ(c.target_indices[k], expected[k].target);
+    }
+  }
+}
+
+TEST(RealPair, ADescribedCloudWithOtherDescriptorsIsNotSearchedThroughItsOldIndex) {
+  const RealPair& pair = realPair();
+  const FeatureParams params;
+  const DescribedCloud s = describeCloud(*pair.source, params, "source");
+  const DescribedCloud t = describeCloud(*pair.target, params, "target");
+  matchDescribedClouds(s, t, params);  // builds t's index
+  // The target's index, the source's points and descriptors: the source matched to itself.
+  DescribedCloud swapped = s;
+  swapped.descriptor_index = t.descriptor_index;
+  const FeatureCorrespondences c = matchDescribedClouds(s, swapped, params);
+  MatchingStats stats;
+  const auto expected = matchesWithFreshTrees(s.descriptors, s.descriptors, params, stats);
+  ASSERT_EQ(c.target_indices.size(), expected.size());
+  for (std::size_t k = 0; k < expected.size(); ++k) ASSERT_EQ(c.target_indices[k], expected[k].target);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -8,6 +9,7 @@
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
+#include "mac_registration/features/feature_matching.hpp"
 #include "mac_registration/features/feature_params.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
@@ -48,6 +50,10 @@ struct DescribedCloud {
   PointCloud::Ptr keypoints;  // voxel centroids that carry a normal and a usable descriptor
   pcl::PointCloud<pcl::Normal>::Ptr normals;
   pcl::PointCloud<pcl::FPFHSignature33>::Ptr descriptors;
+  // The search structure over `descriptors`, built by the first match that needs it and shared by copies
+  // of this struct: matching a cached target does not index it again. Used only while it indexes these
+  // very descriptors (a struct whose descriptors were replaced is indexed afresh at each match).
+  std::shared_ptr<const DescriptorIndex> descriptor_index;
   FeatureParams params;        // what it was described with; matching refuses other parameters
   std::size_t points = 0;      // given
   std::size_t dropped = 0;     // NaN/Inf points removed
