@@ -124,7 +124,7 @@ TEST(Presets, IndoorPresetIsReadWhole) {
 TEST(Presets, OutdoorPresetIsReadWhole) {
   RegistrationConfig config;
   loadPresetFile(config, configPath("outdoor_lidar.yaml"));
-  EXPECT_DOUBLE_EQ(config.features.voxel_size, 0.3);
+  EXPECT_DOUBLE_EQ(config.features.voxel_size, 0.5);
   EXPECT_EQ(config.mac.graph.score, CompatibilityScore::kQuadratic);
   EXPECT_EQ(config.mac.cliques.min_clique_size, 4);
   EXPECT_TRUE(validateConfig(config).empty());
