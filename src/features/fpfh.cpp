@@ -70,11 +70,15 @@ class SurfaceGrid {
     }
     for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
     std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    points_.resize(surface.size());
+    x_.resize(surface.size());
+    y_.resize(surface.size());
+    z_.resize(surface.size());
     indices_.resize(surface.size());
     for (std::size_t i = 0; i < surface.size(); ++i) {
       const std::size_t slot = fill[cell_of[i]]++;
-      points_[slot] = surface[i].getVector3fMap();
+      x_[slot] = surface[i].x;
+      y_[slot] = surface[i].y;
+      z_[slot] = surface[i].z;
       indices_[slot] = static_cast<int>(i);
     }
   }
@@ -83,28 +87,34 @@ class SurfaceGrid {
   // (enough where only the set counts). `keys` is scratch space.
   void search(const pcl::PointXYZ& query, bool sorted, Neighbourhood& out,
               std::vector<std::uint64_t>& keys) const {
-    keys.clear();
     const Eigen::Vector3f q = query.getVector3fMap();
     const Eigen::Vector3i c = cellOf(query);
+    std::size_t ranges[9][2], candidates = 0, count = 0;
+    int rows = 0;
     for (int z = std::max(c.z() - 1, 0); z <= std::min(c.z() + 1, dims_[2] - 1); ++z) {
-      for (int y = std::max(c.y() - 1, 0); y <= std::min(c.y() + 1, dims_[1] - 1); ++y) {
+      for (int y = std::max(c.y() - 1, 0); y <= std::min(c.y() + 1, dims_[1] - 1); ++y, ++rows) {
         const std::size_t row = cellIndex(Eigen::Vector3i(0, y, z));
-        const std::size_t begin = start_[row + std::max(c.x() - 1, 0)];
-        const std::size_t end = start_[row + std::min(c.x() + 1, dims_[0] - 1) + 1];
-        for (std::size_t s = begin; s < end; ++s) {
-          const float dx = q.x() - points_[s].x(), dy = q.y() - points_[s].y(), dz = q.z() - points_[s].z();
-          float d = 0.0f;
-          d += dx * dx;
-          d += dy * dy;
-          d += dz * dz;
-          if (d < squared_radius_) {
-            std::uint32_t bits;
-            std::memcpy(&bits, &d, sizeof bits);  // non-negative floats order as their bit patterns
-            keys.push_back(std::uint64_t{bits} << 32 | static_cast<std::uint32_t>(indices_[s]));
-          }
-        }
+        ranges[rows][0] = start_[row + std::max(c.x() - 1, 0)];
+        ranges[rows][1] = start_[row + std::min(c.x() + 1, dims_[0] - 1) + 1];
+        candidates += ranges[rows][1] - ranges[rows][0];
       }
     }
+    // Every candidate is written and only those within the radius advance the end: no branch to mispredict.
+    keys.resize(candidates);
+    for (int r = 0; r < rows; ++r) {
+      for (std::size_t s = ranges[r][0]; s < ranges[r][1]; ++s) {
+        const float dx = q.x() - x_[s], dy = q.y() - y_[s], dz = q.z() - z_[s];
+        float d = 0.0f;
+        d += dx * dx;
+        d += dy * dy;
+        d += dz * dz;
+        std::uint32_t bits;
+        std::memcpy(&bits, &d, sizeof bits);  // non-negative floats order as their bit patterns
+        keys[count] = std::uint64_t{bits} << 32 | static_cast<std::uint32_t>(indices_[s]);
+        count += d < squared_radius_;
+      }
+    }
+    keys.resize(count);
     if (sorted) std::sort(keys.begin(), keys.end());
     out.indices.resize(keys.size());
     out.squared_distances.resize(keys.size());
@@ -134,7 +144,7 @@ class SurfaceGrid {
   double cell_ = 1.0;
   int dims_[3] = {1, 1, 1};
   std::vector<std::size_t> start_;  // cell c's points are slots start_[c] .. start_[c + 1] - 1
-  std::vector<Eigen::Vector3f> points_;
+  std::vector<float> x_, y_, z_;
   std::vector<int> indices_;
 };
 
@@ -212,9 +222,10 @@ PairBins pairBins(const PairInputs& in, int p, int q) {
   float f1, f2, f3, f4;
   pcl::computePairFeatures(in.points[p], in.normals[p], in.points[q], in.normals[q], f1, f2, f3, f4);
   PairBins out;
-  out.b[0] = clampBin(static_cast<int>(std::floor(kBinsPerAngle * ((f1 + M_PI) * d_pi))));
-  out.b[1] = clampBin(static_cast<int>(std::floor(kBinsPerAngle * ((f2 + 1.0) * 0.5))));
-  out.b[2] = clampBin(static_cast<int>(std::floor(kBinsPerAngle * ((f3 + 1.0) * 0.5))));
+  // PCL floors and then clamps below at 0: truncation differs from the floor only below 0, where both clamp.
+  out.b[0] = clampBin(static_cast<int>(kBinsPerAngle * ((f1 + M_PI) * d_pi)));
+  out.b[1] = clampBin(static_cast<int>(kBinsPerAngle * ((f2 + 1.0) * 0.5)));
+  out.b[2] = clampBin(static_cast<int>(kBinsPerAngle * ((f3 + 1.0) * 0.5)));
   return out;
 }
 
