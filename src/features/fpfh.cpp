@@ -10,6 +10,8 @@
 #include <cstring>
 #include <iterator>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "mac_registration/features/fpfh.hpp"
@@ -36,8 +38,8 @@ struct Neighbourhood {
 // Every surface point within a radius of a query, found in a uniform grid of cells at least as wide as
 // the radius (the 27 cells around the query's own hold them all). The lists are exactly those of PCL's
 // kd-tree: FLANN's float distance ((q - p)_x² + (q - p)_y²) + (q - p)_z², kept when below the float
-// radius², ordered by distance and then by index (FLANN's sort); a kd-tree prunes by bounds, this visits
-// every candidate.
+// radius², ordered by distance and then by index (FLANN's sort). FLANN prunes subtrees by bounds summed
+// in float, which could only drop a point within rounding of the radius; this visits every candidate.
 class SurfaceGrid {
  public:
   SurfaceGrid(const PointCloud& surface, double radius)
@@ -52,7 +54,7 @@ class SurfaceGrid {
     Eigen::Vector3d extent = Eigen::Vector3d::Zero();
     if (!surface.empty()) extent = (hi - lo).cast<double>();
     // A margin over the radius keeps a neighbour within one cell of the query's cell despite the rounding
-    // of the cell coordinates; a wider cell keeps the grid within a few cells a point on spread-out clouds.
+    // of the cell coordinates; a wider cell keeps spread-out clouds within four cells a point.
     cell_ = radius * 1.001;
     const double max_cells = 4.0 * static_cast<double>(surface.size()) + 64.0;
     while ((std::floor(extent.x() / cell_) + 1) * (std::floor(extent.y() / cell_) + 1) *
@@ -197,8 +199,8 @@ PairInputs pairInputs(const PointCloud& surface, const NormalCloud& normals) {
   return in;
 }
 
-// PCL's computePairFeatures takes as source the point whose normal is closer to perpendicular to the
-// line between them (acos of the absolute cosines), so (p, q) and (q, p) give the same features bit for
+// PCL's computePairFeatures takes as source the point whose normal is closer to the line between them
+// (by the acos of the absolute cosines), so (p, q) and (q, p) give the same features bit for
 // bit (every step is then the same float operation on the same values, negation being exact) unless the
 // two acos round to the same float. That needs the two cosines within a few float roundings; this says
 // whether they are within a margin far wider (the pair is then computed both ways).
@@ -288,7 +290,9 @@ SpfhTable computeSpfh(const PairInputs& in, const std::vector<Neighbourhood>& ho
       float* values = table.values.data() + static_cast<std::size_t>(p) * kRowStride;
       for (int b = 0; b < kBins; ++b) {
         std::uint32_t k = 0;
-        for (const auto& c : counts) k += c[static_cast<std::size_t>(p) * kBins + b];
+        for (const auto& c : counts) {
+          if (!c.empty()) k += c[static_cast<std::size_t>(p) * kBins + b];  // empty: a thread not started
+        }
         while (repeated.size() <= k) repeated.push_back(repeated.back() + increment);
         values[b] = repeated[k];
         if (values[b] != 0.0f) mask |= std::uint64_t{1} << b;
@@ -379,6 +383,8 @@ int threadCount(int num_threads) { return num_threads > 0 ? num_threads : omp_ge
 
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,
                            const NormalCloud::ConstPtr& surface_normals, double radius, int num_threads) {
+  if (!(radius > 0.0) || !std::isfinite(radius))
+    throw std::invalid_argument("FPFH radius must be a finite length > 0 m, got " + std::to_string(radius));
   const int threads = threadCount(num_threads);
   const SurfaceGrid grid(*surface, radius);
   const std::vector<Neighbourhood> keypoint_hoods =
