@@ -2,6 +2,7 @@
 // a descriptor is the one PCL's estimator performs (pcl/features/impl/fpfh.hpp, PCL 1.13), in the same
 // order: a fused multiply-add would round differently from PCL's compiled estimator, hence no contraction.
 #include <omp.h>
+#include <pcl/common/point_tests.h>
 #include <pcl/features/pfh_tools.h>
 
 #include <algorithm>
@@ -46,13 +47,16 @@ class SurfaceGrid {
       : squared_radius_(static_cast<float>(radius * radius)) {
     Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f hi = -lo;
+    std::size_t finite = 0;  // PCL's kd-tree leaves non-finite points out, and so does the grid
     for (const auto& p : surface) {
+      if (!pcl::isFinite(p)) continue;
       lo = lo.cwiseMin(p.getVector3fMap());
       hi = hi.cwiseMax(p.getVector3fMap());
+      ++finite;
     }
     origin_ = lo.cast<double>();
     Eigen::Vector3d extent = Eigen::Vector3d::Zero();
-    if (!surface.empty()) extent = (hi - lo).cast<double>();
+    if (finite > 0) extent = (hi - lo).cast<double>();
     // A margin over the radius keeps a neighbour within one cell of the query's cell despite the rounding
     // of the cell coordinates; a wider cell keeps spread-out clouds within four cells a point.
     cell_ = radius * 1.001;
@@ -65,18 +69,21 @@ class SurfaceGrid {
     const std::size_t cells = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
     // Counting sort of the points by cell: each cell's points contiguous, in index order.
     start_.assign(cells + 1, 0);
-    std::vector<std::size_t> cell_of(surface.size());
+    constexpr std::size_t kNoCell = std::numeric_limits<std::size_t>::max();
+    std::vector<std::size_t> cell_of(surface.size(), kNoCell);
     for (std::size_t i = 0; i < surface.size(); ++i) {
+      if (!pcl::isFinite(surface[i])) continue;
       cell_of[i] = cellIndex(cellOf(surface[i]));
       ++start_[cell_of[i] + 1];
     }
     for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
     std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    x_.resize(surface.size());
-    y_.resize(surface.size());
-    z_.resize(surface.size());
-    indices_.resize(surface.size());
+    x_.resize(finite);
+    y_.resize(finite);
+    z_.resize(finite);
+    indices_.resize(finite);
     for (std::size_t i = 0; i < surface.size(); ++i) {
+      if (cell_of[i] == kNoCell) continue;
       const std::size_t slot = fill[cell_of[i]]++;
       x_[slot] = surface[i].x;
       y_[slot] = surface[i].y;
@@ -89,6 +96,11 @@ class SurfaceGrid {
   // (enough where only the set counts). `keys` is scratch space.
   void search(const pcl::PointXYZ& query, bool sorted, Neighbourhood& out,
               std::vector<std::uint64_t>& keys) const {
+    if (!pcl::isFinite(query)) {  // PCL gives such a keypoint no neighbours (a NaN descriptor)
+      out.indices.clear();
+      out.squared_distances.clear();
+      return;
+    }
     const Eigen::Vector3f q = query.getVector3fMap();
     const Eigen::Vector3i c = cellOf(query);
     std::size_t ranges[9][2], candidates = 0, count = 0;

@@ -332,7 +332,8 @@ TEST(Fpfh, PairsSeenAtTheSameAngleFromBothEndsArePclsBitForBit) {
 
 // PCL weights a neighbour by 1 / d²: a point 10 µm from another weighs 10^10 (its weighted bins and
 // those of the far neighbours span more bits than PCL's double sums hold), and one 10^-20 m away weighs
-// infinity (NaN even in the bins its SPFH leaves empty). Both must come out as PCL's.
+// infinity (NaN even in the bins its SPFH leaves empty). Both must come out as PCL's, and a point that
+// is not finite too.
 TEST(Fpfh, NearlyCoincidentPointsArePclsBitForBit) {
   auto points = pcl::make_shared<PointCloud>();
   auto normals = pcl::make_shared<NormalCloud>();
@@ -347,6 +348,7 @@ TEST(Fpfh, NearlyCoincidentPointsArePclsBitForBit) {
   }
   add(0.2f + 1e-5f, 0.2f);
   add(1e-20f, 0.0f);
+  add(std::numeric_limits<float>::quiet_NaN(), 0.1f);  // left out of every neighbourhood, as by PCL
   const double radius = 0.1;
   const FpfhCloud expected = pclFpfh(points, normals, radius);
   for (const int threads : {1, 2}) {
