@@ -254,15 +254,21 @@ struct SpfhTable {
 // added once per pair feature falling there, a float sum of equal terms that does not depend on the
 // order of the pairs: counting the pairs per bin and adding the increment that many times is PCL's value.
 // A pair of two needed points is computed once for both (see sourceMayDependOnOrder); each thread
-// counts into its own table.
+// counts into its own table, and the tables together stay within kCountTableBytes (fewer threads
+// count on a surface too large for that).
+constexpr double kCountTableBytes = 256.0 * 1024 * 1024;
+
 SpfhTable computeSpfh(const PairInputs& in, const std::vector<Neighbourhood>& hoods,
                       const std::vector<int>& needed, int threads) {
   const std::size_t m = in.points.size();
   std::vector<char> is_needed(m, 0);
   for (const int s : needed) is_needed[s] = 1;
-  std::vector<std::vector<std::uint32_t>> counts(threads);
+  const double table_bytes = static_cast<double>(m) * kBins * sizeof(std::uint32_t);
+  const int counting_threads =
+      static_cast<int>(std::max(1.0, std::min<double>(threads, kCountTableBytes / table_bytes)));
+  std::vector<std::vector<std::uint32_t>> counts(counting_threads);
   const int count = static_cast<int>(needed.size());
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(counting_threads)
   {
     std::vector<std::uint32_t>& mine = counts[omp_get_thread_num()];
     mine.assign(m * kBins, 0);
