@@ -36,6 +36,39 @@ struct Neighbourhood {
   std::vector<float> squared_distances;
 };
 
+// Ascending, by a radix sort over the bytes that differ between the keys: a comparison sort of the
+// ~100 keys of a neighbourhood spends most of its time on mispredicted branches.
+void sortKeys(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) {
+  const std::size_t n = keys.size();
+  if (n < 32) {
+    std::sort(keys.begin(), keys.end());
+    return;
+  }
+  std::uint64_t any = 0, all = ~std::uint64_t{0};
+  for (const std::uint64_t k : keys) {
+    any |= k;
+    all &= k;
+  }
+  const std::uint64_t varying = any ^ all;
+  scratch.resize(n);
+  std::uint64_t* from = keys.data();
+  std::uint64_t* to = scratch.data();
+  for (int shift = 0; shift < 64; shift += 8) {
+    if (((varying >> shift) & 0xffu) == 0) continue;
+    std::uint32_t start[256] = {};
+    for (std::size_t i = 0; i < n; ++i) ++start[(from[i] >> shift) & 0xffu];
+    std::uint32_t sum = 0;
+    for (std::uint32_t& s : start) {
+      const std::uint32_t c = s;
+      s = sum;
+      sum += c;
+    }
+    for (std::size_t i = 0; i < n; ++i) to[start[(from[i] >> shift) & 0xffu]++] = from[i];
+    std::swap(from, to);
+  }
+  if (from != keys.data()) std::copy(from, from + n, keys.data());
+}
+
 // Every surface point within a radius of a query, found in a uniform grid of cells at least as wide as
 // the radius (the 27 cells around the query's own hold them all). The lists are exactly those of PCL's
 // kd-tree: FLANN's float distance ((q - p)_x² + (q - p)_y²) + (q - p)_z², kept when below the float
@@ -93,9 +126,9 @@ class SurfaceGrid {
   }
 
   // The neighbours of `query`, in PCL's order when `sorted` (the weighting sums in it), else in grid order
-  // (enough where only the set counts). `keys` is scratch space.
-  void search(const pcl::PointXYZ& query, bool sorted, Neighbourhood& out,
-              std::vector<std::uint64_t>& keys) const {
+  // (enough where only the set counts). `keys` and `scratch` are scratch space.
+  void search(const pcl::PointXYZ& query, bool sorted, Neighbourhood& out, std::vector<std::uint64_t>& keys,
+              std::vector<std::uint64_t>& scratch) const {
     if (!pcl::isFinite(query)) {  // PCL gives such a keypoint no neighbours (a NaN descriptor)
       out.indices.clear();
       out.squared_distances.clear();
@@ -129,7 +162,7 @@ class SurfaceGrid {
       }
     }
     keys.resize(count);
-    if (sorted) std::sort(keys.begin(), keys.end());
+    if (sorted) sortKeys(keys, scratch);
     out.indices.resize(keys.size());
     out.squared_distances.resize(keys.size());
     for (std::size_t j = 0; j < keys.size(); ++j) {
@@ -168,9 +201,9 @@ std::vector<Neighbourhood> searchAll(const SurfaceGrid& grid, const PointCloud& 
   const int n = static_cast<int>(which.size());
 #pragma omp parallel num_threads(threads)
   {
-    std::vector<std::uint64_t> keys;
+    std::vector<std::uint64_t> keys, scratch;
 #pragma omp for schedule(dynamic, 64)
-    for (int j = 0; j < n; ++j) grid.search(queries[which[j]], sorted, out[which[j]], keys);
+    for (int j = 0; j < n; ++j) grid.search(queries[which[j]], sorted, out[which[j]], keys, scratch);
   }
   return out;
 }
