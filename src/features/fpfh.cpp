@@ -1,6 +1,7 @@
-// PCL's FPFH, in loops of its own around PCL's pair feature function. Every float operation that reaches
-// a descriptor is the one PCL's estimator performs (pcl/features/impl/fpfh.hpp, PCL 1.13), in the same
-// order: a fused multiply-add would round differently from PCL's compiled estimator, hence no contraction.
+// PCL's FPFH, in loops of its own around PCL's pair feature function. Every value that reaches a
+// descriptor is PCL's to the bit: PCL's float operations (pcl/features/impl/fpfh.hpp, PCL 1.13), in PCL's
+// order wherever the order can change a result. A fused multiply-add would round differently from PCL's
+// compiled estimator, hence no contraction.
 #include <omp.h>
 #include <pcl/common/point_tests.h>
 #include <pcl/features/pfh_tools.h>
