@@ -304,6 +304,71 @@ TEST(RealPair, FpfhIsPclsOwnEstimatorsBitForBit) {
   }
 }
 
+// Where two points share a normal both see the line between them at the same angle, to the float: PCL's
+// pair feature then keeps the order it is given, and (p, q) and (q, p) differ in the sign of f3, so one
+// feature computed for both points would not be PCL's. A plane whose normals all lean the same way
+// makes every pair such a pair.
+TEST(Fpfh, PairsSeenAtTheSameAngleFromBothEndsArePclsBitForBit) {
+  auto points = pcl::make_shared<PointCloud>();
+  auto normals = pcl::make_shared<NormalCloud>();
+  pcl::Normal leaning;
+  leaning.getNormalVector3fMap() = Eigen::Vector3f(0.6f, 0.2f, 1.0f).normalized();
+  for (int i = 0; i < 30; ++i) {
+    for (int j = 0; j < 30; ++j) {
+      points->push_back(pcl::PointXYZ(float(i) * 0.02f, float(j) * 0.02f, 1.0f));
+      normals->push_back(leaning);
+    }
+  }
+  const double radius = 0.1;
+  const FpfhCloud expected = pclFpfh(points, normals, radius);
+  for (const int threads : {1, 2}) {
+    const FpfhCloud::Ptr actual = computeFpfh(points, normals, radius, threads);
+    ASSERT_EQ(actual->size(), expected.size());
+    std::size_t differing = 0;
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      for (int d = 0; d < 33; ++d) differing += (*actual)[i].histogram[d] != expected[i].histogram[d];
+    }
+    EXPECT_EQ(differing, 0u) << threads << " threads";
+  }
+}
+
+// PCL weights a neighbour by 1 / d²: a point 10 µm from another weighs 10^10 (its weighted bins and
+// those of the far neighbours span more bits than PCL's double sums hold), and one 10^-20 m away weighs
+// infinity (NaN even in the bins its SPFH leaves empty). Both must come out as PCL's, and a point that
+// is not finite too.
+TEST(Fpfh, NearlyCoincidentPointsArePclsBitForBit) {
+  auto points = pcl::make_shared<PointCloud>();
+  auto normals = pcl::make_shared<NormalCloud>();
+  const auto add = [&](float x, float y) {
+    points->push_back(pcl::PointXYZ(x, y, 0.3f * x * x));
+    pcl::Normal normal;
+    normal.getNormalVector3fMap() = Eigen::Vector3f(-0.6f * x, 0.1f * y, 1.0f).normalized();
+    normals->push_back(normal);
+  };
+  for (int i = 0; i < 20; ++i) {
+    for (int j = 0; j < 20; ++j) add(float(i) * 0.02f, float(j) * 0.02f);
+  }
+  add(0.2f + 1e-5f, 0.2f);
+  add(1e-20f, 0.0f);
+  add(std::numeric_limits<float>::quiet_NaN(), 0.1f);  // left out of every neighbourhood, as by PCL
+  const double radius = 0.1;
+  const FpfhCloud expected = pclFpfh(points, normals, radius);
+  for (const int threads : {1, 2}) {
+    const FpfhCloud::Ptr actual = computeFpfh(points, normals, radius, threads);
+    ASSERT_EQ(actual->size(), expected.size());
+    std::size_t differing = 0, nan = 0;
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      for (int d = 0; d < 33; ++d) {
+        const float a = (*actual)[i].histogram[d], e = expected[i].histogram[d];
+        differing += !(a == e || (std::isnan(a) && std::isnan(e)));
+        nan += std::isnan(e);
+      }
+    }
+    EXPECT_EQ(differing, 0u) << threads << " threads";
+    EXPECT_GT(nan, 0u) << "the infinite weight did not reach PCL's descriptors";
+  }
+}
+
 // PCL's own estimator with a separate search surface: the descriptors computeFpfh must reproduce bit for
 // bit when the surface is coarser than the keypoints.
 FpfhCloud pclFpfhOnSurface(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,

@@ -4,11 +4,14 @@
 
 namespace mac_registration {
 
-// FPFH descriptors (Rusu et al. 2009) at `keypoints` from the points of `surface` within `radius` [m]:
-// PCL's SPFH step at every surface point some keypoint's neighbourhood holds (from its own surface
-// neighbours and `surface_normals`, which must be finite), then PCL's weighting of those SPFH at each
-// keypoint. The same descriptors as PCL's FPFHEstimation with setSearchSurface(surface) bit for bit,
-// on all `num_threads` threads (0 = one per core), each neighbourhood searched once instead of twice.
+// FPFH descriptors (Rusu et al. 2009) at `keypoints` from the points of `surface` within `radius` [m,
+// > 0, else std::invalid_argument]: PCL's SPFH step at every surface point some keypoint's neighbourhood
+// holds (from its own surface neighbours and `surface_normals`, which must be finite), then PCL's
+// weighting of those SPFH at each keypoint. The same descriptors as PCL's FPFHEstimation with
+// setSearchSurface(surface) bit for bit, on all `num_threads` threads (0 = one per core): PCL's pair
+// feature function and PCL's float arithmetic in loops that search each neighbourhood once (a grid
+// giving the kd-tree's lists), compute a pair feature once for both of its points where PCL's function
+// gives both the same, and store the SPFH row by row.
 // A surface coarser than the keypoints makes each descriptor a sum over fewer pair features; the
 // keypoints' own normals are not used. NaN where a keypoint has no surface point within `radius`.
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,
