@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <iomanip>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -36,6 +38,23 @@ constexpr double kOverlapEvenOdds = 0.15, kOverlapSlope = 10.0;
 //   behind them (occluded); a wrong one mostly behind, outside the room or the street. Even odds at 50 %.
 constexpr double kSeenEvenOdds = 0.5, kSeenSlope = 6.0;
 
+// - chance: a consensus no larger than unrelated matches give one of the hypotheses tried (significance
+//   0) is no evidence for its pose, however the clouds look (a shuffled-target set's chance pose can lay
+//   planes on planes). Free from a significance of ln(1000) (one in a thousand expected by chance; right
+//   poses measured: >= 14 nats on the synthetic grid, >= 114 on 3DMatch FPFH sets, >= 118 on lidar), then
+//   one log-odds point per nat below, so that at one chance consensus expected (0 nats) it outweighs all
+//   the other terms together; never for the pose: sets of wrong FPFH matches stand far above chance too.
+constexpr double kChanceFree = 6.907755278982137;  // ln(1000)
+// - surface agreement: on a right pose the source's surfaces lie along the target's (normals within 30
+//   deg, measured: >= 67 % of the on-surface keypoints indoors, >= 71 % outdoors); an object-scale cloud
+//   put into a street scan meets its surfaces at random angles, 1 - cos 30 deg = 13 % by chance, and is
+//   "on" them only because tau is a good part of its size. Free from 45 %; at the chance level it costs
+//   as much as all the other terms can give together (kMostSupport), linearly in between. Never for the
+//   pose: planes laid on planes agree at wrong poses too.
+constexpr double kMostSupport = kRivalMost + 3.0;  // the rival term and the three cloud terms at their best
+constexpr double kAgreementFree = 0.45, kAgreementChance = 0.1339745962155614;  // 1 - cos 30 deg
+constexpr double kAgreementSlope = kMostSupport / (kAgreementFree - kAgreementChance);
+
 // The reported score's metric on one residual, 0 beyond tau (as HypothesisEvaluator scores).
 double closeness(double residual, double tau, ScoreMetric metric) {
   if (!(residual < tau)) return 0.0;
@@ -65,6 +84,27 @@ std::string successSummary(const MacResult& r) {
   return text.str();
 }
 
+// ln P(X >= k) for X ~ Poisson(lambda): the upper tail summed from k while it decreases, else one minus
+// the lower terms; -inf when lambda is 0 and k > 0.
+double logPoissonTail(std::size_t k, double lambda) {
+  if (k == 0) return 0.0;
+  if (!(lambda > 0.0)) return -std::numeric_limits<double>::infinity();
+  const double kd = double(k);
+  const auto logTerm = [&](double m) { return m * std::log(lambda) - lambda - std::lgamma(m + 1.0); };
+  if (kd > lambda) {
+    double sum = 1.0, ratio = 1.0;  // terms relative to P(X = k)
+    for (double m = kd + 1.0; m < kd + 10000.0; m += 1.0) {
+      ratio *= lambda / m;
+      sum += ratio;
+      if (ratio < 1e-15 * sum) break;
+    }
+    return logTerm(kd) + std::log(sum);
+  }
+  double lower = 0.0;
+  for (std::size_t m = 0; m < k; ++m) lower += std::exp(logTerm(double(m)));
+  return std::log(std::max(1.0 - lower, 1e-300));
+}
+
 struct RivalCandidate {
   int hypothesis = 0;
   double exclusive_score = 0.0;
@@ -87,6 +127,46 @@ double rmsDisplacement(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, c
   // E|A s + t|^2 = tr(A E[s s^T] A^T) + 2 t^T A E[s] + |t|^2
   const double squared = (A * m.second * A.transpose()).trace() + 2.0 * t.dot(A * m.mean) + t.squaredNorm();
   return std::sqrt(std::max(squared, 0.0));
+}
+
+double chanceInliers(const CorrespondenceSet& c, const Eigen::Isometry3d& T, double tau) {
+  const Eigen::Index n = c.target_points.cols();
+  if (n == 0 || c.source_points.cols() != n || !(tau > 0.0)) return 0.0;
+  // The targets sorted by their cell of a tau grid: the ones within tau of a point lie in its 27 cells.
+  const auto cellOf = [&](const Eigen::Vector3d& p) {
+    return Eigen::Vector3i(int(std::floor(p.x() / tau)), int(std::floor(p.y() / tau)),
+                           int(std::floor(p.z() / tau)));
+  };
+  const auto key = [](const Eigen::Vector3i& v) {
+    const auto u = [](int x) { return std::uint64_t(std::uint32_t(x) & 0x1fffffu); };
+    return (u(v.x()) << 42) | (u(v.y()) << 21) | u(v.z());
+  };
+  std::vector<std::pair<std::uint64_t, Eigen::Index>> cells;
+  cells.reserve(static_cast<std::size_t>(n));
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (c.target_points.col(j).allFinite()) cells.emplace_back(key(cellOf(c.target_points.col(j))), j);
+  }
+  std::sort(cells.begin(), cells.end());
+  const double tau2 = tau * tau;
+  double pairs = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = T * c.source_points.col(i);
+    if (!p.allFinite()) continue;
+    const Eigen::Vector3i centre = cellOf(p);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const std::uint64_t k = key(centre + Eigen::Vector3i(dx, dy, dz));
+          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(k, Eigen::Index(0)));
+          for (; it != cells.end() && it->first == k; ++it)
+            pairs += (c.target_points.col(it->second) - p).squaredNorm() < tau2;
+        }
+  }
+  return pairs / double(n);
+}
+
+double chanceSignificance(std::size_t inliers, double chance_inliers, std::size_t hypotheses) {
+  return -std::log(double(std::max<std::size_t>(hypotheses, 1))) - logPoissonTail(inliers, chance_inliers);
 }
 
 void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<ScoredHypothesis>& hypotheses,
@@ -129,6 +209,10 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
     signals.rival_displacement = rmsDisplacement(best, rival, moments);
   }
 
+  signals.chance_inliers = chanceInliers(c, best, tau);
+  signals.chance_significance =
+      chanceSignificance(result.counters.inliers, signals.chance_inliers, hypotheses.size());
+
   // The distinct rivals, refined, as alternatives a caller can disambiguate with other knowledge.
   result.alternatives.clear();
   std::vector<Eigen::Isometry3d> kept{best};
@@ -167,6 +251,13 @@ std::vector<EvidenceTerm> verificationEvidence(const VerificationSignals& s) {
            << " of the best";
     add("rival_ratio", std::min(kRivalMost, kRivalSlope * (kRivalEvenOdds - s.rival_ratio)), reason.str());
   }
+  if (!std::isnan(s.chance_significance)) {
+    std::ostringstream reason;
+    reason << std::fixed << std::setprecision(1) << "a consensus near chance: " << s.chance_inliers
+           << " inliers expected from unrelated matches at this pose, and one as large among the hypotheses"
+           << " tried " << std::setprecision(2) << std::exp(-s.chance_significance) << " times";
+    add("chance_significance", std::min(0.0, s.chance_significance - kChanceFree), reason.str());
+  }
   if (!std::isnan(s.free_space_violation)) {
     add("free_space_violation",
         std::min(1.0, 1.0 - kFreeSpaceSlope * (s.free_space_violation - kFreeSpaceAllowed)),
@@ -182,6 +273,11 @@ std::vector<EvidenceTerm> verificationEvidence(const VerificationSignals& s) {
     add("seen_on_surface", std::min(1.0, kSeenSlope * (s.seen_on_surface - kSeenEvenOdds)),
         "of the aligned source where the target looked, only " + percent(s.seen_on_surface) +
             " lies on its surfaces (below " + percent(kSeenEvenOdds) + ")");
+  }
+  if (!std::isnan(s.surface_agreement)) {
+    add("surface_agreement", std::min(0.0, kAgreementSlope * (s.surface_agreement - kAgreementFree)),
+        "of the aligned source on the target's surfaces, only " + percent(s.surface_agreement) +
+            " lies along them (normals within 30 deg; chance: 13 %)");
   }
   return terms;
 }

@@ -78,11 +78,21 @@ struct VerificationSignals {
   double rival_ratio = kNotMeasured;         // its score / the reported score; 0 = no rival
   double rival_rotation_deg = kNotMeasured;  // [deg] its rotation from the reported pose
   double rival_displacement = kNotMeasured;  // [m] its RMS displacement of the source points
+  // [count] Inliers the reported pose would have if every target were paired with a random source (the
+  // mean over permutations of the targets): what unrelated matches give at this pose by chance.
+  double chance_inliers = kNotMeasured;
+  // [nats] -ln of the expected number of hypotheses, of those tried, whose consensus is as large as the
+  // reported one by chance (Poisson tail at chance_inliers, times the hypotheses scored): below ~0 a
+  // consensus this large is what unrelated matches give.
+  double chance_significance = kNotMeasured;
   // From the clouds (front end only), on the keypoints, at tau = evaluation.inlier_threshold.
   double aligned_overlap = kNotMeasured;  // share of the aligned source within tau of the target
   // Of the aligned source keypoints in directions the target's sensor saw (its viewpoint), the share on
   // the target's surfaces (within tau).
   double seen_on_surface = kNotMeasured;
+  // Of the aligned source keypoints on the target's surfaces, the share whose normal lies within 30 deg
+  // of the target's there (either orientation): 13 % for surfaces meeting at random angles.
+  double surface_agreement = kNotMeasured;
   // Share of keypoints lying more than tau in front of everything the other cloud's sensor saw in their
   // direction, in space it saw through; the larger of the two views (target seeing the aligned source,
   // source seeing the aligned target).

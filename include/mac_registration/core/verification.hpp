@@ -43,11 +43,20 @@ PointMoments pointMoments(const Eigen::Matrix3Xd& points);
 // far origin).
 double rmsDisplacement(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const PointMoments& moments);
 
+// [count] The mean inlier count at T_target_source (residual < tau) over all pairings of the sources with
+// the targets: sum over i, j of [|T s_i - t_j| < tau] / N. O(N) expected, on a grid of the targets.
+double chanceInliers(const CorrespondenceSet& correspondences, const Eigen::Isometry3d& T_target_source,
+                     double tau);
+
+// [nats] -ln(hypotheses x P(X >= inliers)), X Poisson with mean chance_inliers: how far the consensus
+// stands above the best that chance gives among that many hypotheses (0 = one expected by chance).
+double chanceSignificance(std::size_t inliers, double chance_inliers, std::size_t hypotheses);
+
 // The correspondence signals of result.T_target_source (the refined best hypothesis, score result.score)
 // against `hypotheses`, every scored hypothesis of the search: the best rival at a clearly different pose
 // (more than distinct_pose_factor x tau RMS away), scored on the correspondences the reported pose leaves
-// unexplained, and up to max_alternatives distinct rivals, refined. Fills result.verification's
-// correspondence signals and result.alternatives.
+// unexplained; the inliers chance would give at the pose; and up to max_alternatives distinct rivals,
+// refined. Fills result.verification's correspondence signals and result.alternatives.
 void measureCorrespondenceSignals(const CorrespondenceSet& correspondences,
                                   const std::vector<ScoredHypothesis>& hypotheses,
                                   const HypothesisEvaluator& evaluator, const MacParams& params,
