@@ -70,21 +70,30 @@ class RangeImage {
 
 double share(std::size_t part, std::size_t whole) { return whole > 0 ? double(part) / double(whole) : 0.0; }
 
-// Fewest aligned keypoints the target must have seen for seen_on_surface to mean something.
+// Fewest aligned keypoints the target must have seen for seen_on_surface to mean something, and fewest
+// on its surfaces for surface_agreement.
 constexpr std::size_t kFewestSeen = 10;
+
+// Two surfaces lie along each other where their normals are within 30 deg (either orientation: a map's
+// or a moved cloud's normals may face the other way).
+const float kAlongCosine = float(std::cos(30.0 * M_PI / 180.0));
 
 }  // namespace
 
 // One cloud as its sensor saw it.
 struct AlignmentJudge::View {
   PointCloud::ConstPtr points;
+  pcl::PointCloud<pcl::Normal>::ConstPtr normals;  // per point, or null
   Eigen::Vector3f viewpoint;
   float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
   std::unique_ptr<RangeImage> image;
 
-  View(const PointCloud::ConstPtr& cloud, const Eigen::Vector3f& from, double tau)
-      : points(cloud), viewpoint(from) {
+  View(const PointCloud::ConstPtr& cloud, const pcl::PointCloud<pcl::Normal>::ConstPtr& cloud_normals,
+       const Eigen::Vector3f& from, double tau)
+      : points(cloud),
+        normals(cloud_normals && cloud_normals->size() == cloud->size() ? cloud_normals : nullptr),
+        viewpoint(from) {
     tree.setInputCloud(cloud);
     std::vector<float> ranges;
     ranges.reserve(cloud->size());
@@ -97,15 +106,21 @@ struct AlignmentJudge::View {
   }
 
   // How `placed` (points put into this cloud's frame) agree with what this sensor saw.
+  // `placed_normals`, when given, are the placed points' normals in this frame: those on a surface are
+  // compared with its normal there (`with_normals`, `along`).
   struct Agreement {
     std::size_t points = 0, seen = 0, on_surface = 0, seen_on_surface = 0, in_free_space = 0;
+    std::size_t with_normals = 0, along = 0;
   };
-  Agreement compare(const std::vector<Eigen::Vector3f>& placed, double tau, int threads) const {
+  Agreement compare(const std::vector<Eigen::Vector3f>& placed,
+                    const std::vector<Eigen::Vector3f>* placed_normals, double tau, int threads) const {
     Agreement out;
     out.points = placed.size();
-    std::size_t seen = 0, on = 0, seen_on = 0, front = 0;
+    const bool judge_normals = normals && placed_normals && placed_normals->size() == placed.size();
+    std::size_t seen = 0, on = 0, seen_on = 0, front = 0, with_normals = 0, along = 0;
     const int n = int(placed.size());
-#pragma omp parallel for schedule(static) reduction(+ : seen, on, seen_on, front) num_threads(threads)
+#pragma omp parallel for schedule(static) reduction(+ : seen, on, seen_on, front, with_normals, along) \
+    num_threads(threads)
     for (int i = 0; i < n; ++i) {
       pcl::PointXYZ query;
       query.getVector3fMap() = placed[i];
@@ -118,11 +133,20 @@ struct AlignmentJudge::View {
       seen += looked;
       seen_on += looked && near;
       front += looked && !near && range < nearest_seen - tau;
+      if (near && judge_normals) {
+        const float cosine = (*placed_normals)[i].dot((*normals)[index[0]].getNormalVector3fMap());
+        if (std::isfinite(cosine)) {
+          ++with_normals;
+          along += std::abs(cosine) >= kAlongCosine;
+        }
+      }
     }
     out.seen = seen;
     out.on_surface = on;
     out.seen_on_surface = seen_on;
     out.in_free_space = front;
+    out.with_normals = with_normals;
+    out.along = along;
     return out;
   }
 };
@@ -132,8 +156,8 @@ AlignmentJudge::AlignmentJudge(const FeatureCorrespondences& f, double tau, int 
   if (!f.source_keypoints || !f.target_keypoints || f.source_keypoints->size() < 3 ||
       f.target_keypoints->size() < 3)
     return;
-  source_ = std::make_unique<View>(f.source_keypoints, f.source_viewpoint, tau);
-  target_ = std::make_unique<View>(f.target_keypoints, f.target_viewpoint, tau);
+  source_ = std::make_unique<View>(f.source_keypoints, f.source_keypoint_normals, f.source_viewpoint, tau);
+  target_ = std::make_unique<View>(f.target_keypoints, f.target_keypoint_normals, f.target_viewpoint, tau);
 }
 
 AlignmentJudge::~AlignmentJudge() = default;
@@ -147,6 +171,12 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
   source_in_target.reserve(source_->points->size());
   target_in_source.reserve(target_->points->size());
   for (const auto& p : *source_->points) source_in_target.push_back(forward * p.getVector3fMap());
+  std::vector<Eigen::Vector3f> source_normals_in_target;
+  if (source_->normals) {
+    source_normals_in_target.reserve(source_->normals->size());
+    for (const auto& n : *source_->normals)
+      source_normals_in_target.push_back(forward.linear() * n.getNormalVector3fMap());
+  }
   // Only what lies within the source sensor's reach can be judged by it: a map as the target would
   // otherwise cost a query per map point and dilute the shares with places the scan never saw.
   const float reach = source_->max_range + float(tau_);
@@ -154,12 +184,16 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
     const Eigen::Vector3f q = inverse * p.getVector3fMap();
     if ((q - source_->viewpoint).norm() <= reach) target_in_source.push_back(q);
   }
-  const View::Agreement seen_by_target = target_->compare(source_in_target, tau_, threads_);
-  const View::Agreement seen_by_source = source_->compare(target_in_source, tau_, threads_);
+  const View::Agreement seen_by_target = target_->compare(
+      source_in_target, source_->normals ? &source_normals_in_target : nullptr, tau_, threads_);
+  const View::Agreement seen_by_source = source_->compare(target_in_source, nullptr, tau_, threads_);
   signals.aligned_overlap = share(seen_by_target.on_surface, seen_by_target.points);
   signals.seen_on_surface = seen_by_target.seen >= kFewestSeen
                                 ? share(seen_by_target.seen_on_surface, seen_by_target.seen)
                                 : kNotMeasured;
+  signals.surface_agreement = seen_by_target.with_normals >= kFewestSeen
+                                  ? share(seen_by_target.along, seen_by_target.with_normals)
+                                  : kNotMeasured;
   signals.free_space_violation = std::max(share(seen_by_target.in_free_space, seen_by_target.points),
                                           share(seen_by_source.in_free_space, seen_by_source.points));
   return signals;
@@ -174,6 +208,7 @@ void verifyAlignment(const FeatureCorrespondences& features, const MacParams& pa
   result.verification.aligned_overlap = clouds.aligned_overlap;
   result.verification.seen_on_surface = clouds.seen_on_surface;
   result.verification.free_space_violation = clouds.free_space_violation;
+  result.verification.surface_agreement = clouds.surface_agreement;
   decideVerification(params.verification, result);
   const double elapsed =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -225,7 +225,8 @@ void printCasesByKind(std::ostream& out, const std::vector<VerificationCase>& ca
 void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>& cases) {
   out << "name,subset,kind,answerable,has_truth,registered,correct,success,status,confidence,re_deg,te_m,"
          "correspondences,inlier_ratio,inliers,rival_ratio,rival_rotation_deg,rival_displacement_m,"
-         "aligned_overlap,seen_on_surface,free_space_violation,alternatives,alternative_score_ratio,"
+         "aligned_overlap,seen_on_surface,free_space_violation,surface_agreement,chance_inliers,"
+         "chance_significance,alternatives,alternative_score_ratio,"
          "alternative_rotation_deg,alternative_re_deg,alternative_te_m,front_end_ms,core_ms,verification_ms,"
          "message\n";
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -241,7 +242,8 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
         << r.confidence << "," << c.rotation_error_deg << "," << c.translation_error << ","
         << c.correspondences << "," << c.inlier_ratio << "," << r.counters.inliers << "," << s.rival_ratio
         << "," << s.rival_rotation_deg << "," << s.rival_displacement << "," << s.aligned_overlap << ","
-        << s.seen_on_surface << "," << s.free_space_violation << "," << r.alternatives.size() << ","
+        << s.seen_on_surface << "," << s.free_space_violation << "," << s.surface_agreement << ","
+        << s.chance_inliers << "," << s.chance_significance << "," << r.alternatives.size() << ","
         << (alternative ? a.score_ratio : nan) << "," << (alternative ? a.rotation_deg : nan) << ","
         << (alternative && c.has_truth ? rotationErrorDeg(a.T_target_source, c.truth) : nan) << ","
         << (alternative && c.has_truth ? translationError(a.T_target_source, c.truth) : nan) << ","

@@ -23,9 +23,10 @@ class AlignmentJudge {
   AlignmentJudge(const FeatureCorrespondences& features, double tau, int num_threads = 0);
   ~AlignmentJudge();
 
-  // The cloud signals of one pose (aligned_overlap, seen_on_surface, free_space_violation); all NaN when
-  // either cloud has fewer than 3 keypoints, seen_on_surface NaN when the target saw fewer than 10 of
-  // the aligned source keypoints.
+  // The cloud signals of one pose (aligned_overlap, seen_on_surface, surface_agreement,
+  // free_space_violation); all NaN when either cloud has fewer than 3 keypoints, seen_on_surface NaN when
+  // the target saw fewer than 10 of the aligned source keypoints, surface_agreement NaN without both
+  // clouds' keypoint normals or with fewer than 10 aligned keypoints on the target's surfaces.
   VerificationSignals judge(const Eigen::Isometry3d& T_target_source) const;
 
  private:
