@@ -346,6 +346,10 @@ std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& querie
   return result;
 }
 
+bool bruteForceSearches(std::size_t sources, std::size_t targets, double epsilon) {
+  return epsilon == 0.0 && double(sources) * double(targets) <= kBruteForceMaxPairs;
+}
+
 namespace {
 
 // The targets some source descriptor found nearest, ascending: the only ones the mutual check asks about.
@@ -372,7 +376,7 @@ std::vector<FeatureMatch> matchFeatures(const DescriptorIndex& source, const Des
   const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
   const bool ratio_test = params.ratio_test > 0.0;
   std::vector<NearestDescriptors> forward, backward;
-  if (params.match_epsilon == 0.0) {
+  if (bruteForceSearches(source_descriptors.size(), target_descriptors.size(), params.match_epsilon)) {
     forward = nearestDescriptorsBruteForce(source_descriptors, target, threads,
                                            params.mutual_filter ? &backward : nullptr);
   } else {

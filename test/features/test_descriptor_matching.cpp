@@ -255,6 +255,14 @@ TEST(BruteForceSearch, ExactMatchingPacksTheTargetAndLeavesTheSourceUnsearched) 
   EXPECT_EQ(t.packed().count, static_cast<int>(f.f0->size()));
 }
 
+TEST(BruteForceSearch, IsTheExactSearchUpToItsPairLimit) {
+  EXPECT_TRUE(bruteForceSearches(5000, 5000, 0.0));
+  EXPECT_FALSE(bruteForceSearches(5000, 5000, 1.0));  // approximate: the kd-tree
+  EXPECT_FALSE(bruteForceSearches(20000, 20000, 0.0));
+  EXPECT_TRUE(bruteForceSearches(1, static_cast<std::size_t>(kBruteForceMaxPairs), 0.0));
+  EXPECT_FALSE(bruteForceSearches(2, static_cast<std::size_t>(kBruteForceMaxPairs), 0.0));
+}
+
 TEST(BruteForceSearch, ConcurrentMatchesShareOnePackedTarget) {
   const Fragments& f = fragments();
   const DescriptorIndex s(f.f4), t(f.f0);

@@ -98,8 +98,19 @@ std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& querie
                                                          const DescriptorIndex& reference, int k,
                                                          double epsilon, int threads);
 
-// Each source descriptor's nearest target descriptor (exact brute force when params.match_epsilon = 0,
-// ties to the lowest target index; else the kd-tree, within (1 + match_epsilon) of the nearest distance),
+// Source x target descriptor pairs up to which the exact search is the brute force, above it the exact
+// kd-tree: the brute force's time grows with the pairs, the tree's more slowly. Measured with AVX-512 on
+// 2 cores (BENCHMARKS.md, "Exact search by brute force"): brute force 5x faster at 1 000 x 1 000, even at
+// 4 000 x 4 000, 1.2x faster at 10 000 x 10 600, 1.2x slower at 18 300 x 19 500.
+constexpr double kBruteForceMaxPairs = 1.2e8;
+
+// Whether matchFeatures searches `sources` x `targets` descriptors by brute force: epsilon = 0 and at most
+// kBruteForceMaxPairs pairs.
+bool bruteForceSearches(std::size_t sources, std::size_t targets, double epsilon);
+
+// Each source descriptor's nearest target descriptor (exact when params.match_epsilon = 0: brute force,
+// ties to the lowest target index, up to kBruteForceMaxPairs pairs, else the exact kd-tree; with
+// match_epsilon > 0 the kd-tree, within (1 + match_epsilon) of the nearest distance),
 // optionally kept only when mutual (params.mutual_filter) and distinctive (params.ratio_test); then the
 // params.max_correspondences closest, ascending by distance (ties by source index: deterministic).
 std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const FpfhCloud::ConstPtr& target,
