@@ -99,10 +99,12 @@ std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& querie
                                                          double epsilon, int threads);
 
 // Source x target descriptor pairs up to which the exact search is the brute force, above it the exact
-// kd-tree: the brute force's time grows with the pairs, the tree's more slowly. Measured with AVX-512 on
-// 2 cores (BENCHMARKS.md, "Exact search by brute force"): brute force 5x faster at 1 000 x 1 000, even at
-// 4 000 x 4 000, 1.2x faster at 10 000 x 10 600, 1.2x slower at 18 300 x 19 500.
-constexpr double kBruteForceMaxPairs = 1.2e8;
+// kd-tree: the brute force's time grows with the pairs, the tree's more slowly and depending on how the
+// descriptors cluster. Measured with AVX-512 on 2 shared cores, one thread (BENCHMARKS.md, "Exact search
+// by brute force"): brute force 5x faster on 1 000 x 1 000 Luminar descriptors, 1.3x on 3 900 x 4 200
+// KITTI descriptors at 1 m voxels, 1.1x slower on 5 200 x 5 100 3DMatch descriptors, 1.2x slower on
+// 18 300 x 19 500 KITTI descriptors at 0.3 m.
+constexpr double kBruteForceMaxPairs = 2e7;
 
 // Whether matchFeatures searches `sources` x `targets` descriptors by brute force: epsilon = 0 and at most
 // kBruteForceMaxPairs pairs.
