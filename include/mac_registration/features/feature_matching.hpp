@@ -98,21 +98,8 @@ std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& querie
                                                          const DescriptorIndex& reference, int k,
                                                          double epsilon, int threads);
 
-// Source x target descriptor pairs up to which the exact search is the brute force, above it the exact
-// kd-tree: the brute force's time grows with the pairs, the tree's more slowly and depending on how the
-// descriptors cluster. Measured with AVX-512 on 2 shared cores, one thread (BENCHMARKS.md, "Exact search
-// by brute force"): brute force 5x faster on 1 000 x 1 000 Luminar descriptors, 1.3x on 3 900 x 4 200
-// KITTI descriptors at 1 m voxels, 1.1x slower on 5 200 x 5 100 3DMatch descriptors, 1.2x slower on
-// 18 300 x 19 500 KITTI descriptors at 0.3 m.
-constexpr double kBruteForceMaxPairs = 2e7;
-
-// Whether matchFeatures searches `sources` x `targets` descriptors by brute force: epsilon = 0 and at most
-// kBruteForceMaxPairs pairs.
-bool bruteForceSearches(std::size_t sources, std::size_t targets, double epsilon);
-
-// Each source descriptor's nearest target descriptor (exact when params.match_epsilon = 0: brute force,
-// ties to the lowest target index, up to kBruteForceMaxPairs pairs, else the exact kd-tree; with
-// match_epsilon > 0 the kd-tree, within (1 + match_epsilon) of the nearest distance),
+// Each source descriptor's nearest target descriptor (params.match_epsilon = 0: exact, by brute force, ties
+// to the lowest target index; else the kd-tree, within (1 + match_epsilon) of the nearest distance),
 // optionally kept only when mutual (params.mutual_filter) and distinctive (params.ratio_test); then the
 // params.max_correspondences closest, ascending by distance (ties by source index: deterministic).
 std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const FpfhCloud::ConstPtr& target,
