@@ -606,7 +606,8 @@ TEST(RealPair, OneDescriptorIndexServesEveryMatchWithTheMatchesOfFreshTrees) {
 TEST(RealPair, ConcurrentMatchesAgainstOneDescribedTargetShareItsIndex) {
   const RealPair& pair = realPair();
   FeatureParams params;
-  params.mutual_filter = true;  // both sides' indices searched
+  params.mutual_filter = true;  // both sides' indices searched (the kd-tree's approximate search)
+  params.match_epsilon = 1.0;
   params.num_threads = 1;
   const DescribedCloud s = describeCloud(*pair.source, params, "source");
   const DescribedCloud t = describeCloud(*pair.target, params, "target");
