@@ -2,11 +2,8 @@
 // run account for its total, and the Open3D script's report is parsed into the outcome of a real pair.
 // The Open3D cases skip, saying so, only when the script cannot import open3d (python3-open3d).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -14,6 +11,7 @@
 #include <vector>
 
 #include "benchmark_table.hpp"
+#include "cli_run.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "open3d_peer.hpp"
@@ -23,24 +21,11 @@
 namespace mac_registration {
 namespace {
 
+using test::CliRun;
+using test::runTool;
 using test::TempDir;
 
-struct CliRun {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-CliRun runBenchmark(const std::string& arguments) {
-  CliRun r;
-  FILE* pipe = ::popen((std::string(MAC_BENCHMARK_BIN) + " " + arguments + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buffer;
-  for (std::size_t n; (n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0;)
-    r.output.append(buffer.data(), n);
-  const int raw = ::pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+CliRun runBenchmark(const std::string& arguments) { return runTool(MAC_BENCHMARK_BIN, arguments); }
 
 std::vector<std::string> splitCsvLine(const std::string& line) {
   std::vector<std::string> fields;

@@ -1,11 +1,9 @@
 // mac_register as a user runs it: exit status 0 / 1 / 2 and the reason on stderr.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <string>
 
+#include "cli_run.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "temp_dir.hpp"
@@ -13,24 +11,11 @@
 namespace mac_registration {
 namespace {
 
+using test::CliRun;
+using test::runTool;
 using test::TempDir;
 
-struct CliRun {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-CliRun run(const std::string& arguments) {
-  CliRun r;
-  FILE* pipe = ::popen((std::string(MAC_REGISTER_BIN) + " " + arguments + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buffer;
-  for (std::size_t n; (n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0;)
-    r.output.append(buffer.data(), n);
-  const int raw = ::pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+CliRun run(const std::string& arguments) { return runTool(MAC_REGISTER_BIN, arguments); }
 
 std::string dataPath(const std::string& name) { return std::string(MAC_TEST_DATA_DIR) + "/" + name; }
 std::string demoDataPath(const std::string& name) { return std::string(MAC_DATA_DIR) + "/" + name; }
