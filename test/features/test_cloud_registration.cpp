@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <pcl/features/fpfh.h>
 #include <pcl/features/fpfh_omp.h>
+#include <pcl/features/normal_3d_omp.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/search/kdtree.h>
 
@@ -263,6 +264,60 @@ TEST(RealPair, TheResolutionIsEstimatedOnlyWhenTheGaussianSigmaIsInResolutions) 
   const double resolution = describeCloud(*pair.source, params, "source").resolution;
   EXPECT_GT(resolution, 0.012);
   EXPECT_LT(resolution, 0.03);
+}
+
+// PCL's own normal estimator with a kd-tree: what estimateNormals must reproduce bit for bit.
+NormalCloud pclNormals(const PointCloud::ConstPtr& points, const PointCloud::ConstPtr& surface,
+                       double radius) {
+  pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimator(2);
+  estimator.setInputCloud(points);
+  if (surface != points) estimator.setSearchSurface(surface);
+  estimator.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimator.setRadiusSearch(radius);
+  const Eigen::Vector4f& sensor = points->sensor_origin_;
+  estimator.setViewPoint(sensor.x(), sensor.y(), sensor.z());
+  NormalCloud normals;
+  estimator.compute(normals);
+  return normals;
+}
+
+std::size_t differingNormals(const NormalCloud& actual, const NormalCloud& expected) {
+  std::size_t differing = 0;
+  const auto same = [](float a, float e) { return a == e || (std::isnan(a) && std::isnan(e)); };
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    const pcl::Normal &a = actual[i], &e = expected[i];
+    differing += !(same(a.normal_x, e.normal_x) && same(a.normal_y, e.normal_y) &&
+                   same(a.normal_z, e.normal_z) && same(a.curvature, e.curvature));
+  }
+  return differing;
+}
+
+// On the voxels themselves and, as describeCloud's coarser support surface, on a grid fitted to them;
+// the radius leaves some voxels too few neighbours, so NaN normals are compared too.
+TEST(RealPair, NormalsArePclsOwnEstimatorsBitForBit) {
+  std::size_t dropped = 0;
+  PointCloud::Ptr voxels = voxelDownsample(*finitePoints(*realPair().source, dropped), 0.05);
+  voxels->sensor_origin_ = Eigen::Vector4f(0.3f, -0.2f, 0.1f, 0.0f);
+  PointCloud::Ptr grid = voxelDownsample(*voxels, 0.1);
+  grid->sensor_origin_ = voxels->sensor_origin_;
+  for (const double radius : {0.06, 0.1}) {
+    const NormalCloud on_voxels = pclNormals(voxels, voxels, radius);
+    const NormalCloud on_grid = pclNormals(grid, voxels, radius);
+    std::size_t nan = 0;
+    for (const auto& n : on_voxels) nan += std::isnan(n.normal_x);
+    if (radius < 0.1) {
+      EXPECT_GT(nan, 0u) << "no voxel without a normal at radius " << radius;
+    }
+    for (const int threads : {1, 2}) {
+      const NormalCloud::Ptr actual = estimateNormals(voxels, radius, threads);
+      ASSERT_EQ(actual->size(), on_voxels.size());
+      EXPECT_EQ(differingNormals(*actual, on_voxels), 0u) << radius << " m, " << threads << " threads";
+      const NormalCloud::Ptr fitted = estimateNormals(grid, voxels, radius, threads);
+      ASSERT_EQ(fitted->size(), on_grid.size());
+      EXPECT_EQ(differingNormals(*fitted, on_grid), 0u)
+          << radius << " m on the grid, " << threads << " threads";
+    }
+  }
 }
 
 // The descriptors of PCL's OpenMP estimator, which searches every neighbourhood twice: what

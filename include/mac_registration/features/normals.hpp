@@ -4,9 +4,9 @@
 
 namespace mac_registration {
 
-// Normals from the points within `radius` [m] (PCL's OpenMP estimator on `num_threads` threads, 0 = one
-// per core), oriented towards the cloud's sensor_origin_ (the origin of its frame unless set). NaN where
-// fewer than 3 neighbours fix a plane.
+// Normals from the points within `radius` [m], oriented towards the cloud's sensor_origin_ (the origin of
+// its frame unless set); NaN where fewer than 3 neighbours fix a plane. The same normals, bit for bit, as
+// PCL's NormalEstimationOMP with a kd-tree, on `num_threads` threads (0 = one per core).
 NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radius, int num_threads);
 
 // The same at `points` from the neighbours on `surface` (PCL's setSearchSurface), oriented towards
