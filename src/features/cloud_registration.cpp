@@ -113,7 +113,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
   out.resolution_ms = millisecondsSince(start);
 
   start = Clock::now();
-  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size);
+  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size, params.num_threads);
   out.voxels = voxels->size();
   out.downsample_ms = millisecondsSince(start);
 
@@ -130,7 +130,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
   NormalCloud::Ptr surface_normals = kept_normals;
   if (params.support_voxel_factor > 1.0) {
     start = Clock::now();
-    surface = voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size);
+    surface = voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size, params.num_threads);
     out.downsample_ms += millisecondsSince(start);
     start = Clock::now();
     // Fitted to the keypoints around each surface point, not to the few surface points themselves.

@@ -1,3 +1,5 @@
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +23,9 @@ constexpr std::int64_t kVoxelsPerAxis = std::int64_t(1) << kBitsPerAxis;
 // far inside int64, so neither the cast nor the difference of two indices can overflow, whatever the input.
 constexpr double kLargestCellIndex = 4503599627370496.0;  // 2^52
 
+// Below this many points a parallel pass costs more in thread start-up than it saves.
+constexpr std::int64_t kParallelPoints = 1 << 14;
+
 bool cellInRange(double cell) { return std::abs(cell) <= kLargestCellIndex; }  // false for NaN and Inf
 
 [[noreturn]] void throwCellOutOfRange(double coordinate, double voxel_size) {
@@ -30,30 +35,42 @@ bool cellInRange(double cell) { return std::abs(cell) <= kLargestCellIndex; }  /
   throw std::invalid_argument(reason.str());
 }
 
-// Every point's voxel coordinates and their bounding box.
-struct Cells {
-  std::vector<std::int64_t> xyz;  // 3 per point
-  std::int64_t low[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
-  std::int64_t high[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
+// The occupied box in voxel coordinates. floor(x / voxel) is monotone in x, so the box of the points'
+// cells is the cells of the points' box: one min / max pass over the floats, no per-point cell array.
+struct CellBox {
+  std::int64_t low[3] = {0, 0, 0};
+  std::int64_t high[3] = {0, 0, 0};
 };
 
-Cells computeCells(const PointCloud& cloud, double voxel_size) {
-  const double inverse = 1.0 / voxel_size;
-  Cells out;
-  out.xyz.resize(3 * cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
+CellBox occupiedBox(const PointCloud& cloud, double voxel_size, int threads) {
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  bool finite = true;
+  const auto n = static_cast<std::int64_t>(cloud.size());
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(min : lo[:3]) \
+    reduction(max : hi[:3]) reduction(&& : finite) if (n >= kParallelPoints)
+  for (std::int64_t i = 0; i < n; ++i) {
     const auto& p = cloud.points[i];
-    const double coordinates[3] = {p.x, p.y, p.z};
-    for (int axis = 0; axis < 3; ++axis) {
-      const double cell = std::floor(coordinates[axis] * inverse);
-      if (!cellInRange(cell)) throwCellOutOfRange(coordinates[axis], voxel_size);
-      const auto c = static_cast<std::int64_t>(cell);
-      out.xyz[3 * i + axis] = c;
-      out.low[axis] = std::min(out.low[axis], c);
-      out.high[axis] = std::max(out.high[axis], c);
+    finite = finite && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+    lo[0] = std::min(lo[0], p.x), lo[1] = std::min(lo[1], p.y), lo[2] = std::min(lo[2], p.z);
+    hi[0] = std::max(hi[0], p.x), hi[1] = std::max(hi[1], p.y), hi[2] = std::max(hi[2], p.z);
+  }
+  if (!finite) {
+    for (const auto& p : cloud.points) {
+      for (const float c : {p.x, p.y, p.z}) {
+        if (!std::isfinite(c)) throwCellOutOfRange(c, voxel_size);
+      }
     }
   }
-  return out;
+  const double inverse = 1.0 / voxel_size;
+  CellBox box;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double low = std::floor(lo[axis] * inverse), high = std::floor(hi[axis] * inverse);
+    if (!cellInRange(low)) throwCellOutOfRange(lo[axis], voxel_size);
+    if (!cellInRange(high)) throwCellOutOfRange(hi[axis], voxel_size);
+    box.low[axis] = static_cast<std::int64_t>(low);
+    box.high[axis] = static_cast<std::int64_t>(high);
+  }
+  return box;
 }
 
 // A point's voxel as one number, lexicographic in (x, y, z), with its index in the cloud.
@@ -64,57 +81,85 @@ struct Keyed {
 
 // Mixed-radix keys over the occupied box: their order is the lexicographic order of the voxels, and they
 // need only as many bits as the box has voxels, which bounds the passes of the radix sort below.
-std::vector<Keyed> voxelKeys(const Cells& cells, std::size_t n, std::uint64_t& largest_key) {
-  const std::uint64_t span_y = std::uint64_t(cells.high[1] - cells.low[1] + 1);
-  const std::uint64_t span_z = std::uint64_t(cells.high[2] - cells.low[2] + 1);
-  largest_key = (std::uint64_t(cells.high[0] - cells.low[0]) * span_y + (span_y - 1)) * span_z + (span_z - 1);
-  std::vector<Keyed> keyed(n);
-  const auto count = static_cast<std::int64_t>(n);
-  for (std::int64_t i = 0; i < count; ++i) {
-    const std::int64_t* c = &cells.xyz[3 * i];
-    const std::uint64_t x = std::uint64_t(c[0] - cells.low[0]), y = std::uint64_t(c[1] - cells.low[1]),
-                        z = std::uint64_t(c[2] - cells.low[2]);
-    keyed[i] = {(x * span_y + y) * span_z + z, static_cast<std::uint32_t>(i)};
+std::vector<Keyed> voxelKeys(const PointCloud& cloud, double voxel_size, const CellBox& box, int threads,
+                             std::uint64_t& largest_key) {
+  const std::uint64_t span_y = std::uint64_t(box.high[1] - box.low[1] + 1);
+  const std::uint64_t span_z = std::uint64_t(box.high[2] - box.low[2] + 1);
+  largest_key = (std::uint64_t(box.high[0] - box.low[0]) * span_y + (span_y - 1)) * span_z + (span_z - 1);
+  const double inverse = 1.0 / voxel_size;
+  std::vector<Keyed> keyed(cloud.size());
+  const auto n = static_cast<std::int64_t>(cloud.size());
+  const auto offset = [&](float coordinate, int axis) {
+    return std::uint64_t(static_cast<std::int64_t>(std::floor(coordinate * inverse)) - box.low[axis]);
+  };
+#pragma omp parallel for num_threads(threads) schedule(static) if (n >= kParallelPoints)
+  for (std::int64_t i = 0; i < n; ++i) {
+    const auto& p = cloud.points[i];
+    keyed[i] = {(offset(p.x, 0) * span_y + offset(p.y, 1)) * span_z + offset(p.z, 2),
+                static_cast<std::uint32_t>(i)};
   }
   return keyed;
 }
 
 // Least-significant-digit radix sort by key, stable: points of one voxel stay in input order, so each
-// centroid sums its points in the same order as a comparison sort of (key, index) would.
-void radixSortByKey(std::vector<Keyed>& keyed, std::uint64_t largest_key) {
+// centroid sums its points in the same order as a comparison sort of (key, index) would. Each thread
+// counts and moves a contiguous block of the input; the blocks' buckets are laid out in block order, which
+// keeps the sort stable and its output the same whatever the thread count.
+void radixSortByKey(std::vector<Keyed>& keyed, std::uint64_t largest_key, int threads) {
   constexpr int kDigitBits = 11;
   constexpr std::size_t kBuckets = std::size_t(1) << kDigitBits;
-  std::vector<Keyed> buffer(keyed.size());
+  const std::size_t n = keyed.size();
+  if (n < std::size_t(kParallelPoints)) threads = 1;
+  std::vector<Keyed> buffer(n);
+  std::vector<std::size_t> start(kBuckets * threads);
   for (int shift = 0; shift < 64 && (largest_key >> shift) != 0; shift += kDigitBits) {
-    std::vector<std::size_t> start(kBuckets + 1, 0);
-    for (const Keyed& k : keyed) ++start[((k.key >> shift) & (kBuckets - 1)) + 1];
-    for (std::size_t b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
-    for (const Keyed& k : keyed) buffer[start[(k.key >> shift) & (kBuckets - 1)]++] = k;
+    const auto digit = [&](const Keyed& k) { return (k.key >> shift) & (kBuckets - 1); };
+#pragma omp parallel num_threads(threads)
+    {
+      const int blocks = omp_get_num_threads(), b = omp_get_thread_num();
+      const std::size_t first = n * b / blocks, last = n * (b + 1) / blocks;
+      std::size_t* mine = &start[kBuckets * b];
+      std::fill(mine, mine + kBuckets, 0);
+      for (std::size_t i = first; i < last; ++i) ++mine[digit(keyed[i])];
+#pragma omp barrier
+#pragma omp single
+      {
+        std::size_t sum = 0;
+        for (std::size_t d = 0; d < kBuckets; ++d) {
+          for (int t = 0; t < blocks; ++t) {
+            const std::size_t count = start[kBuckets * t + d];
+            start[kBuckets * t + d] = sum;
+            sum += count;
+          }
+        }
+      }
+      for (std::size_t i = first; i < last; ++i) buffer[mine[digit(keyed[i])]++] = keyed[i];
+    }
     keyed.swap(buffer);
   }
 }
 
 }  // namespace
 
-PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size) {
+PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size, int num_threads) {
   if (!(voxel_size > 0.0)) throw std::invalid_argument("voxel size must be > 0");
   auto result = pcl::make_shared<PointCloud>();
   if (cloud.empty()) return result;
   if (cloud.size() > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("a cloud of " + std::to_string(cloud.size()) + " points is beyond 2^32");
 
-  const Cells cells = computeCells(cloud, voxel_size);
+  const int threads = num_threads > 0 ? num_threads : omp_get_num_procs();
+  const CellBox box = occupiedBox(cloud, voxel_size, threads);
   for (int axis = 0; axis < 3; ++axis) {
-    if (cells.high[axis] - cells.low[axis] >= kVoxelsPerAxis) {
-      throw std::invalid_argument("the cloud spans " +
-                                  std::to_string(cells.high[axis] - cells.low[axis] + 1) + " voxels of " +
-                                  std::to_string(voxel_size) + " m along an axis (at most " +
+    if (box.high[axis] - box.low[axis] >= kVoxelsPerAxis) {
+      throw std::invalid_argument("the cloud spans " + std::to_string(box.high[axis] - box.low[axis] + 1) +
+                                  " voxels of " + std::to_string(voxel_size) + " m along an axis (at most " +
                                   std::to_string(kVoxelsPerAxis) + "): raise the voxel size");
     }
   }
   std::uint64_t largest_key = 0;
-  std::vector<Keyed> keyed = voxelKeys(cells, cloud.size(), largest_key);
-  radixSortByKey(keyed, largest_key);
+  std::vector<Keyed> keyed = voxelKeys(cloud, voxel_size, box, threads, largest_key);
+  radixSortByKey(keyed, largest_key, threads);
 
   std::vector<std::size_t> begins;  // where each voxel's run of points starts, then the end
   for (std::size_t i = 0; i < keyed.size(); ++i) {
@@ -123,6 +168,7 @@ PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size) {
   begins.push_back(keyed.size());
   const auto voxels = static_cast<std::int64_t>(begins.size() - 1);
   result->resize(voxels);
+#pragma omp parallel for num_threads(threads) schedule(static) if (voxels >= kParallelPoints)
   for (std::int64_t v = 0; v < voxels; ++v) {
     double sum[3] = {0.0, 0.0, 0.0};
     for (std::size_t k = begins[v]; k < begins[v + 1]; ++k) {

@@ -80,7 +80,8 @@ TEST(VoxelDownsample, DoesNotDependOnTheOrderOfThePoints) {
 }
 
 // A box of 10 m at 5 cm holds 8 M possible voxels: the keys need several passes of the radix sort, whose
-// order must still be the lexicographic order of the voxels, each centroid the mean of its points.
+// order must still be the lexicographic order of the voxels, each centroid the mean of its points, on one
+// thread or two.
 TEST(VoxelDownsample, OrdersAWideCloudLexicographically) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> coordinate(-5.0f, 5.0f);
@@ -106,6 +107,14 @@ TEST(VoxelDownsample, OrdersAWideCloudLexicographically) {
     EXPECT_FLOAT_EQ(p.x, float(sum[0] / sum[3])) << i;
     EXPECT_FLOAT_EQ(p.z, float(sum[2] / sum[3])) << i;
   }
+  // The threads split the passes over the points and the voxels, never the sums of one voxel.
+  const PointCloud::Ptr two = voxelDownsample(cloud, voxel, 2);
+  ASSERT_EQ(two->size(), one->size());
+  std::size_t differing = 0;
+  for (std::size_t v = 0; v < one->size(); ++v) {
+    differing += (*one)[v].x != (*two)[v].x || (*one)[v].y != (*two)[v].y || (*one)[v].z != (*two)[v].z;
+  }
+  EXPECT_EQ(differing, 0u);
 }
 
 TEST(VoxelDownsample, RefusesAGridTooFineForTheExtent) {
