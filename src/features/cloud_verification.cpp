@@ -1,7 +1,6 @@
 #include "mac_registration/features/cloud_verification.hpp"
 
 #include <omp.h>
-#include <pcl/kdtree/kdtree_flann.h>
 
 #include <algorithm>
 #include <chrono>
@@ -10,6 +9,7 @@
 #include <vector>
 
 #include "mac_registration/core/verification.hpp"
+#include "surface_grid.hpp"
 
 namespace mac_registration {
 namespace {
@@ -86,15 +86,15 @@ struct AlignmentJudge::View {
   pcl::PointCloud<pcl::Normal>::ConstPtr normals;  // per point, or null
   Eigen::Vector3f viewpoint;
   float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  SurfaceGrid near_grid;   // the points within tau of a placed point
   std::unique_ptr<RangeImage> image;
 
   View(const PointCloud::ConstPtr& cloud, const pcl::PointCloud<pcl::Normal>::ConstPtr& cloud_normals,
        const Eigen::Vector3f& from, double tau)
       : points(cloud),
         normals(cloud_normals && cloud_normals->size() == cloud->size() ? cloud_normals : nullptr),
-        viewpoint(from) {
-    tree.setInputCloud(cloud);
+        viewpoint(from),
+        near_grid(*cloud, tau) {
     std::vector<float> ranges;
     ranges.reserve(cloud->size());
     for (const auto& p : *cloud) ranges.push_back((p.getVector3fMap() - viewpoint).norm());
@@ -124,9 +124,9 @@ struct AlignmentJudge::View {
     for (int i = 0; i < n; ++i) {
       pcl::PointXYZ query;
       query.getVector3fMap() = placed[i];
-      std::vector<int> index(1);
-      std::vector<float> squared(1);
-      const bool near = tree.nearestKSearch(query, 1, index, squared) == 1 && squared[0] < tau * tau;
+      int nearest = 0;
+      float squared = 0.0f;
+      const bool near = near_grid.nearest(query, nearest, squared);
       float nearest_seen = 0.0f, range = 0.0f;
       const bool looked = image->lookup(placed[i], nearest_seen, range);
       on += near;
@@ -134,7 +134,7 @@ struct AlignmentJudge::View {
       seen_on += looked && near;
       front += looked && !near && range < nearest_seen - tau;
       if (near && judge_normals) {
-        const float cosine = (*placed_normals)[i].dot((*normals)[index[0]].getNormalVector3fMap());
+        const float cosine = (*placed_normals)[i].dot((*normals)[nearest].getNormalVector3fMap());
         if (std::isfinite(cosine)) {
           ++with_normals;
           along += std::abs(cosine) >= kAlongCosine;

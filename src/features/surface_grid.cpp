@@ -110,17 +110,9 @@ void SurfaceGrid::search(const pcl::PointXYZ& query, bool sorted, Neighbourhood&
     return;
   }
   const Eigen::Vector3f q = query.getVector3fMap();
-  const Eigen::Vector3i c = cellOf(query);
   std::size_t ranges[9][2], candidates = 0, count = 0;
-  int rows = 0;
-  for (int z = std::max(c.z() - 1, 0); z <= std::min(c.z() + 1, dims_[2] - 1); ++z) {
-    for (int y = std::max(c.y() - 1, 0); y <= std::min(c.y() + 1, dims_[1] - 1); ++y, ++rows) {
-      const std::size_t row = cellIndex(Eigen::Vector3i(0, y, z));
-      ranges[rows][0] = start_[row + std::max(c.x() - 1, 0)];
-      ranges[rows][1] = start_[row + std::min(c.x() + 1, dims_[0] - 1) + 1];
-      candidates += ranges[rows][1] - ranges[rows][0];
-    }
-  }
+  const int rows = candidateRanges(query, ranges);
+  for (int r = 0; r < rows; ++r) candidates += ranges[r][1] - ranges[r][0];
   // Every candidate is written and only those within the radius advance the end: no branch to mispredict.
   keys.resize(candidates);
   for (int r = 0; r < rows; ++r) {
@@ -145,6 +137,46 @@ void SurfaceGrid::search(const pcl::PointXYZ& query, bool sorted, Neighbourhood&
     const auto bits = static_cast<std::uint32_t>(keys[j] >> 32);
     std::memcpy(&out.squared_distances[j], &bits, sizeof bits);
   }
+}
+
+bool SurfaceGrid::nearest(const pcl::PointXYZ& query, int& index, float& squared_distance) const {
+  if (!pcl::isFinite(query)) return false;
+  const Eigen::Vector3f q = query.getVector3fMap();
+  std::size_t ranges[9][2];
+  const int rows = candidateRanges(query, ranges);
+  // (distance bits, index) keys: their minimum is the nearest point, ties to the lowest index.
+  std::uint64_t best = std::numeric_limits<std::uint64_t>::max();
+  for (int r = 0; r < rows; ++r) {
+    for (std::size_t s = ranges[r][0]; s < ranges[r][1]; ++s) {
+      const float dx = q.x() - x_[s], dy = q.y() - y_[s], dz = q.z() - z_[s];
+      float d = 0.0f;
+      d += dx * dx;
+      d += dy * dy;
+      d += dz * dz;
+      std::uint32_t bits;
+      std::memcpy(&bits, &d, sizeof bits);
+      const std::uint64_t key = std::uint64_t{bits} << 32 | static_cast<std::uint32_t>(indices_[s]);
+      best = d < squared_radius_ ? std::min(best, key) : best;
+    }
+  }
+  if (best == std::numeric_limits<std::uint64_t>::max()) return false;
+  index = static_cast<int>(best & 0xffffffffu);
+  const auto bits = static_cast<std::uint32_t>(best >> 32);
+  std::memcpy(&squared_distance, &bits, sizeof bits);
+  return true;
+}
+
+int SurfaceGrid::candidateRanges(const pcl::PointXYZ& query, std::size_t (&ranges)[9][2]) const {
+  const Eigen::Vector3i c = cellOf(query);
+  int rows = 0;
+  for (int z = std::max(c.z() - 1, 0); z <= std::min(c.z() + 1, dims_[2] - 1); ++z) {
+    for (int y = std::max(c.y() - 1, 0); y <= std::min(c.y() + 1, dims_[1] - 1); ++y, ++rows) {
+      const std::size_t row = cellIndex(Eigen::Vector3i(0, y, z));
+      ranges[rows][0] = start_[row + std::max(c.x() - 1, 0)];
+      ranges[rows][1] = start_[row + std::min(c.x() + 1, dims_[0] - 1) + 1];
+    }
+  }
+  return rows;
 }
 
 Eigen::Vector3i SurfaceGrid::cellOf(const pcl::PointXYZ& p) const {

@@ -30,7 +30,13 @@ class SurfaceGrid {
   void search(const pcl::PointXYZ& query, bool sorted, Neighbourhood& out, std::vector<std::uint64_t>& keys,
               std::vector<std::uint64_t>& scratch) const;
 
+  // The nearest surface point within the radius of `query` (its index and squared distance, as search
+  // measures them; ties to the lowest index), or false when there is none.
+  bool nearest(const pcl::PointXYZ& query, int& index, float& squared_distance) const;
+
  private:
+  // The slot ranges of the (up to) 9 rows of 3 cells around the query's cell; returns how many.
+  int candidateRanges(const pcl::PointXYZ& query, std::size_t (&ranges)[9][2]) const;
   Eigen::Vector3i cellOf(const pcl::PointXYZ& p) const;
   std::size_t cellIndex(const Eigen::Vector3i& c) const;
 
