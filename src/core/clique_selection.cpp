@@ -131,6 +131,90 @@ std::vector<SelectedClique> NodeGuidedSelector::selected() const {
   return result;
 }
 
+StreamedSelection::StreamedSelection(const CompatibilityGraph& graph, bool concurrent) : selector_(graph) {
+  if (concurrent) worker_ = std::thread([this] { work(); });
+}
+
+StreamedSelection::~StreamedSelection() { stopWorker(); }
+
+void StreamedSelection::add(const int* nodes, std::size_t size) {
+  filling_.nodes.insert(filling_.nodes.end(), nodes, nodes + size);
+  filling_.ends.push_back(filling_.nodes.size());
+  if (filling_.ends.size() == kBatch) handOver();
+}
+
+void StreamedSelection::finish() {
+  if (!filling_.ends.empty()) handOver();
+  const auto start = std::chrono::steady_clock::now();
+  stopWorker();
+  waited_ += std::chrono::steady_clock::now() - start;
+  if (error_) std::rethrow_exception(error_);
+}
+
+double StreamedSelection::waitedMilliseconds() const {
+  return std::chrono::duration<double, std::milli>(waited_).count();
+}
+
+void StreamedSelection::offer(const Batch& batch) {
+  std::size_t begin = 0;
+  for (const std::size_t end : batch.ends) {
+    selector_.offer(batch.nodes.data() + begin, end - begin);
+    begin = end;
+  }
+}
+
+// Inline, the batch is offered here (its time is the selection's); else it waits for the worker to have
+// taken the previous batch, and swaps the full one in for the emptied one the worker left.
+void StreamedSelection::handOver() {
+  const auto start = std::chrono::steady_clock::now();
+  if (!worker_.joinable()) {
+    offer(filling_);
+  } else {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return !handed_full_; });
+    if (error_) std::rethrow_exception(error_);
+    std::swap(filling_, handed_);
+    handed_full_ = true;
+    changed_.notify_all();
+  }
+  filling_.nodes.clear();
+  filling_.ends.clear();
+  waited_ += std::chrono::steady_clock::now() - start;
+}
+
+void StreamedSelection::work() {
+  Batch working;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [&] { return handed_full_ || finished_; });
+      if (!handed_full_) return;
+      std::swap(working, handed_);
+      handed_full_ = false;
+      changed_.notify_all();
+    }
+    try {
+      if (!error_) offer(working);
+    } catch (...) {
+      // Read by the search's thread only under the lock, after a hand-over or the join.
+      std::lock_guard<std::mutex> lock(mutex_);
+      error_ = std::current_exception();
+    }
+    working.nodes.clear();
+    working.ends.clear();
+  }
+}
+
+void StreamedSelection::stopWorker() {
+  if (!worker_.joinable()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    finished_ = true;
+    changed_.notify_all();
+  }
+  worker_.join();
+}
+
 std::vector<SelectedClique> normalConsistentCliques(const std::vector<SelectedClique>& cliques,
                                                     const CorrespondenceSet& c, double threshold,
                                                     const StopFlag* stop) {

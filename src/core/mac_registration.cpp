@@ -42,50 +42,17 @@ bool stopped(const StopFlag* stop, MacResult& result, const char* stage) {
   return true;
 }
 
-// Offers the streamed cliques to the node-guided selector in batches, timing each batch: two clock reads
-// per clique (~50 ns) would be a fifth of the selection of a small clique. The selector sees the cliques in
-// the order of the search, so batching changes nothing else.
-class TimedSelection {
- public:
-  explicit TimedSelection(const CompatibilityGraph& graph) : selector_(graph) {}
-
-  void add(const int* nodes, std::size_t size) {
-    nodes_.insert(nodes_.end(), nodes, nodes + size);
-    ends_.push_back(nodes_.size());
-    if (ends_.size() == kBatch) flush();
-  }
-
-  void flush() {
-    const auto start = Clock::now();
-    std::size_t begin = 0;
-    for (std::size_t end : ends_) {
-      selector_.offer(nodes_.data() + begin, end - begin);
-      begin = end;
-    }
-    nodes_.clear();
-    ends_.clear();
-    elapsed_ += Clock::now() - start;
-  }
-
-  const NodeGuidedSelector& selector() const { return selector_; }
-  double milliseconds() const { return std::chrono::duration<double, std::milli>(elapsed_).count(); }
-
- private:
-  static constexpr std::size_t kBatch = 256;
-  NodeGuidedSelector selector_;
-  std::vector<int> nodes_;
-  std::vector<std::size_t> ends_;
-  Clock::duration elapsed_{0};
-};
-
+// With a second thread the selection runs beside the search (igraph's enumeration is serial): the same
+// selection, and the search's time is no longer the sum of both.
 std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const CorrespondenceSet& c,
-                                          const MacParams& params, const StopFlag* stop, MacResult& result) {
-  TimedSelection selection(graph);
+                                          const MacParams& params, int threads, const StopFlag* stop,
+                                          MacResult& result) {
+  StreamedSelection selection(graph, threads > 1);
   const auto search_start = Clock::now();
   const CliqueSearchStats stats = searchMaximalCliques(
       graph, params.cliques, [&](const int* nodes, std::size_t size) { selection.add(nodes, size); }, stop);
-  selection.flush();
-  const double selecting_ms = selection.milliseconds();
+  selection.finish();
+  const double selecting_ms = selection.waitedMilliseconds();
   result.times.clique_search_ms = millisecondsSince(search_start) - selecting_ms;
   const auto filter_start = Clock::now();
   result.counters.cliques = stats.cliques;
@@ -311,7 +278,7 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
 
-  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, stop, result);
+  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, threads, stop, result);
   if (stopped(stop, result, "the clique search and selection")) return;
   if (cliques.empty()) {
     fail(result, RegistrationStatus::kNoClique,

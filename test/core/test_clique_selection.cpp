@@ -178,6 +178,26 @@ TEST(NodeGuidedSelector, MatchesThePerNodeHeaviestOfAllMaximalCliques) {
   EXPECT_GT(ties, 100) << "the tied weights should make equal-weight cliques meet at a node";
 }
 
+// Thousands of cliques, so that many batches are handed to the selector's thread while the search goes on.
+TEST(StreamedSelection, ConcurrentIsTheInlineSelection) {
+  for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+    const CompatibilityGraph g = randomGraph(150, 0.3, seed % 2 == 0, seed);
+    const std::vector<Nodes> cliques = allMaximalCliques(g);
+    ASSERT_GT(cliques.size(), 4000u);
+    std::vector<SelectedClique> selections[2];
+    for (const bool concurrent : {false, true}) {
+      StreamedSelection streamed(g, concurrent);
+      for (const Nodes& clique : cliques) streamed.add(clique.data(), clique.size());
+      streamed.finish();
+      selections[concurrent] = streamed.selector().selected();
+    }
+    ASSERT_EQ(nodesOf(selections[1]), nodesOf(selections[0])) << "seed " << seed;
+    for (std::size_t k = 0; k < selections[0].size(); ++k)
+      ASSERT_EQ(selections[1][k].weight, selections[0][k].weight);
+    EXPECT_EQ(nodesOf(selections[0]), nodesOf(select(g, cliques)));
+  }
+}
+
 // Normals: pair (0,3) has source sine 0 but target sine 0.5 (30 deg); pair (2,3) has source sine 1 but
 // target sine sin(60 deg) = 0.866; every other pair has sine 1 on both sides. Node 1's target normal is
 // flipped and node 2's source normal has length 2: neither changes a sine.

@@ -1,6 +1,11 @@
 #pragma once
 
+#include <chrono>
+#include <condition_variable>
 #include <cstddef>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
@@ -65,6 +70,48 @@ class NodeGuidedSelector {
   std::vector<SelectedClique> slots_;
   std::vector<int> slot_users_;
   std::vector<int> free_slots_;
+};
+
+// Offers the cliques a search streams to a NodeGuidedSelector in batches, in the order of the search.
+// With `concurrent`, the batches are offered on a thread of its own while the search goes on: the search's
+// thread hands a full batch over and fills the next, and the selector sees the same cliques in the same
+// order, so the selection is the same either way. An exception of the selector comes back out of add() or
+// finish().
+class StreamedSelection {
+ public:
+  StreamedSelection(const CompatibilityGraph& graph, bool concurrent);
+  ~StreamedSelection();
+  StreamedSelection(const StreamedSelection&) = delete;
+  StreamedSelection& operator=(const StreamedSelection&) = delete;
+
+  void add(const int* nodes, std::size_t size);
+  // Offers what is left and waits for the selector; call before selector().
+  void finish();
+  const NodeGuidedSelector& selector() const { return selector_; }
+  // [ms] the search's thread spent offering cliques or waiting for the selector's thread: the selection's
+  // time not overlapped with the search.
+  double waitedMilliseconds() const;
+
+ private:
+  struct Batch {
+    std::vector<int> nodes;
+    std::vector<std::size_t> ends;
+  };
+  static constexpr std::size_t kBatch = 512;  // cliques a batch
+
+  void offer(const Batch& batch);
+  void handOver();
+  void work();
+  void stopWorker();
+
+  NodeGuidedSelector selector_;
+  Batch filling_, handed_;
+  bool handed_full_ = false, finished_ = false;
+  std::exception_ptr error_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::thread worker_;
+  std::chrono::steady_clock::duration waited_{0};
 };
 
 // Keeps the cliques whose every pair of correspondences is normal-consistent (paper Eq. 5):

@@ -30,9 +30,11 @@ struct StageTimes {               // wall-clock milliseconds
   double graph_ms = 0.0;          // first-order graph
   double second_order_ms = 0.0;   // SOG weights
   double clique_search_ms = 0.0;  // igraph enumeration, excluding the selection it streams into
-  double selection_ms = 0.0;      // node-guided selection, filters, top-K
-  double hypotheses_ms = 0.0;     // SVD per selected clique
-  double evaluation_ms = 0.0;     // scoring every hypothesis on all correspondences
+  // Node-guided selection, filters, top-K: the time they added to the search's (on two or more threads
+  // the selection runs beside the search, and only what it does not overlap counts here).
+  double selection_ms = 0.0;
+  double hypotheses_ms = 0.0;  // SVD per selected clique
+  double evaluation_ms = 0.0;  // scoring every hypothesis on all correspondences
   double refinement_ms = 0.0;
   double verification_ms = 0.0;  // signals, alternatives and confidence (with clouds: the front end's too)
   double total_ms = 0.0;
