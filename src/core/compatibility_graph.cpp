@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <numeric>
+
+#include <omp.h>
 
 namespace mac_registration {
 namespace {
@@ -147,54 +150,191 @@ struct PointsSoA {
   }
 };
 
-using UpperRows = std::vector<std::vector<UpperEdge>>;
+// Rows written back to back, each whole in one chunk; chunks are allocated uninitialised and never moved,
+// so that growing neither zero-fills nor copies what is written.
+class RowChunks {
+ public:
+  explicit RowChunks(std::size_t chunk_entries) : chunk_entries_(chunk_entries) {}
 
-// One pass over every pair of a point set.
+  // Room for `entries` more at to() and weight(), in the current chunk or a new one.
+  void reserve(std::size_t entries) {
+    if (!to_.empty() && used_ + entries <= capacity_) return;
+    capacity_ = std::max(chunk_entries_, entries);
+    to_.emplace_back(new int[capacity_]);
+    weight_.emplace_back(new float[capacity_]);
+    used_ = 0;
+  }
+  int* to() { return to_.back().get() + used_; }
+  float* weight() { return weight_.back().get() + used_; }
+  void commit(std::size_t entries) { used_ += entries; }
+
+ private:
+  std::size_t chunk_entries_, capacity_ = 0, used_ = 0;
+  std::vector<std::unique_ptr<int[]>> to_;
+  std::vector<std::unique_ptr<float[]>> weight_;
+};
+
+// One pass over every pair of a point set. Each thread appends the rows it tests to chunks of its own, so
+// that no row needs an allocation of its own.
 struct PairPass {
-  UpperRows rows;                // every compatible pair (i, j > i), when within max_edges, else empty
-  std::vector<int> degree;       // compatible pairs of each point, all of them counted
-  std::size_t compatible = 0;    // compatible pairs in all
-  bool within_max_edges = true;  // compatible <= max_edges, and so rows are complete
+  std::vector<RowChunks> chunks;   // per thread: the rows it kept
+  std::vector<int*> row_to;        // row i's j, ascending, in its thread's chunks
+  std::vector<float*> row_weight;  // their weights
+  std::vector<int> row_count;      // entries of row i kept (all of them, or 0 past max_edges)
+  std::vector<int> degree;         // compatible pairs of each point, all of them counted
+  std::size_t compatible = 0;      // compatible pairs in all
+  bool within_max_edges = true;    // compatible <= max_edges, and so the rows are complete
 };
 
 // Tests every pair, counting each point's compatible pairs, and keeps the edges while there are at most
 // max_edges of them (memory stays bounded past that; the count goes on, so that a reduction can rank
 // nodes by their true degree). Counts and the outcome are the same whatever the thread count. A raised
-// stop leaves everything incomplete.
+// stop leaves everything incomplete, but the rows kept and the degrees still agree.
 PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std::size_t max_edges,
                          int num_threads, const StopFlag* stop) {
   const int n = points.size();
   const float max_d2 = static_cast<float>(maxResidualSquared(params));
+  constexpr std::size_t kChunkEntries = std::size_t(1) << 18;
   PairPass pass;
-  pass.rows.assign(n, {});
+  for (int t = 0; t < num_threads; ++t) pass.chunks.emplace_back(std::max(kChunkEntries, std::size_t(n)));
+  pass.row_to.assign(n, nullptr);
+  pass.row_weight.assign(n, nullptr);
+  pass.row_count.assign(n, 0);
   pass.degree.assign(n, 0);
   std::atomic<std::size_t> total{0};
   std::atomic<bool> overflow{false};
 #pragma omp parallel num_threads(num_threads)
   {
-    std::vector<float> d2(n), candidate_d2(n);
-    std::vector<int> candidates(n);
+    RowChunks& chunks = pass.chunks[omp_get_thread_num()];
+    std::vector<float> d2(n);
     std::vector<int> degree(n, 0);  // this thread's counts, summed below: integers, so in any order
 #pragma omp for schedule(dynamic, 16)
     for (int i = 0; i < n; ++i) {
       if (stopRequested(stop)) continue;
-      const int found = points.compatibleInRow(i, max_d2, d2.data(), candidates.data(), candidate_d2.data());
+      // The kernel writes the found pairs straight into place, their d^2 where their weights go.
+      chunks.reserve(static_cast<std::size_t>(n - i - 1));
+      int* const to = chunks.to();
+      float* const weight = chunks.weight();
+      const int found = points.compatibleInRow(i, max_d2, d2.data(), to, weight);
       degree[i] += found;
-      for (int c = 0; c < found; ++c) ++degree[candidates[c]];
+      for (int c = 0; c < found; ++c) ++degree[to[c]];
       if (total.fetch_add(found) + found > max_edges) overflow = true;
       if (overflow.load(std::memory_order_relaxed)) continue;
-      auto& row = pass.rows[i];
-      row.reserve(found);
-      for (int c = 0; c < found; ++c)
-        row.push_back({candidates[c], scoreFromResidualSquared(candidate_d2[c], params)});
+      for (int c = 0; c < found; ++c) weight[c] = scoreFromResidualSquared(weight[c], params);
+      pass.row_to[i] = to;
+      pass.row_weight[i] = weight;
+      pass.row_count[i] = found;
+      chunks.commit(static_cast<std::size_t>(found));
     }
 #pragma omp critical
     for (int i = 0; i < n; ++i) pass.degree[i] += degree[i];
   }
   pass.compatible = total;
   pass.within_max_edges = !overflow;
-  if (overflow) UpperRows().swap(pass.rows);
+  if (overflow) {
+    std::vector<RowChunks>().swap(pass.chunks);
+    pass.row_to.assign(n, nullptr);
+    pass.row_weight.assign(n, nullptr);
+    pass.row_count.assign(n, 0);
+  }
   return pass;
+}
+
+// The rows of the graph's nodes as spans of a pass's buffers: each ascending, above its node.
+struct NodeRows {
+  std::vector<const int*> to;
+  std::vector<const float*> weight;
+  std::vector<int> count;
+  std::vector<std::int64_t> degree;  // the node's whole degree: its row and the rows that name it
+};
+
+// The rows of `pass`, whose point k is node node_of_point[k] of a graph of num_nodes (ascending, so the
+// rows stay ascending); relabels the pass's entries in place. Where the pass kept its rows, its degrees are
+// their counts at both ends.
+NodeRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int num_nodes, int num_threads) {
+  NodeRows rows;
+  rows.to.assign(num_nodes, nullptr);
+  rows.weight.assign(num_nodes, nullptr);
+  rows.count.assign(num_nodes, 0);
+  rows.degree.assign(num_nodes, 0);
+  const int points = static_cast<int>(node_of_point.size());
+  bool identity = true;
+  for (int k = 0; k < points && identity; ++k) identity = node_of_point[k] == k;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
+  for (int k = 0; k < points; ++k) {
+    const int node = node_of_point[k];
+    int* to = pass.row_to[k];
+    if (!identity) {
+      for (int c = 0; c < pass.row_count[k]; ++c) to[c] = node_of_point[to[c]];
+    }
+    rows.to[node] = to;
+    rows.weight[node] = pass.row_weight[k];
+    rows.count[node] = pass.row_count[k];
+    rows.degree[node] = pass.within_max_edges ? pass.degree[k] : 0;
+  }
+  return rows;
+}
+
+// graphFromUpperRows on num_threads threads, the same graph bit for bit: each row goes to the tail of its
+// node's list; the lower entries of the nodes are split into one range of nodes per thread, each walking
+// all the rows from a binary search to its range, in ascending row order, so every list comes out sorted
+// without a sort, and in blocks of nodes so that the lines being written stay cached.
+CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads) {
+  const int n = static_cast<int>(rows.count.size());
+  CompatibilityGraph graph;
+  graph.num_nodes = n;
+  graph.offsets.assign(n + 1, 0);
+  std::vector<std::int64_t> lower_prefix(n + 1, 0);
+  for (int v = 0; v < n; ++v) {
+    graph.offsets[v + 1] = graph.offsets[v] + rows.degree[v];
+    lower_prefix[v + 1] = lower_prefix[v] + rows.degree[v] - rows.count[v];
+  }
+  graph.neighbours.resize(graph.offsets.back());
+  graph.weights.resize(graph.offsets.back());
+  // The lists written at once, a cache line of each in flight: 2048 nodes keep 256 kB of lines in cache.
+  constexpr int kNodesPerBlock = 2048;
+#pragma omp parallel num_threads(num_threads)
+  {
+#pragma omp for schedule(dynamic, 64) nowait
+    for (int v = 0; v < n; ++v) {
+      const std::int64_t at = graph.offsets[v + 1] - rows.count[v];
+      std::copy(rows.to[v], rows.to[v] + rows.count[v], graph.neighbours.begin() + at);
+      std::copy(rows.weight[v], rows.weight[v] + rows.count[v], graph.weights.begin() + at);
+    }
+    // Nodes [first, last) by equal shares of the lower entries.
+    const int threads = omp_get_num_threads(), thread = omp_get_thread_num();
+    const auto boundary = [&](int t) {
+      if (t == threads) return n;
+      const std::int64_t share = lower_prefix[n] * t / threads;
+      return static_cast<int>(std::lower_bound(lower_prefix.begin(), lower_prefix.begin() + n, share) -
+                              lower_prefix.begin());
+    };
+    const int first = boundary(thread), last = boundary(thread + 1);
+    std::vector<int> next(last);  // the first entry of each row not yet mirrored
+    for (int i = 0; i < last; ++i) {
+      next[i] =
+          static_cast<int>(std::lower_bound(rows.to[i], rows.to[i] + rows.count[i], first) - rows.to[i]);
+    }
+    std::vector<std::int64_t> cursor(graph.offsets.begin() + first, graph.offsets.begin() + last);
+    int* const neighbours = graph.neighbours.data();
+    float* const weights = graph.weights.data();
+    for (int block_begin = first; block_begin < last; block_begin += kNodesPerBlock) {
+      const int block_end = std::min(last, block_begin + kNodesPerBlock);
+      for (int i = 0; i < block_end; ++i) {
+        const int* const to = rows.to[i];
+        const float* const weight = rows.weight[i];
+        const int count = rows.count[i];
+        int k = next[i];
+        for (; k < count && to[k] < block_end; ++k) {
+          const std::int64_t at = cursor[to[k] - first]++;
+          neighbours[at] = i;
+          weights[at] = weight[k];
+        }
+        next[i] = k;
+      }
+    }
+  }
+  return graph;
 }
 
 // `count` indices spread evenly over [0, n), ascending; all of them when count >= n.
@@ -211,17 +351,6 @@ std::vector<int> indicesOf(const std::vector<char>& mask) {
     if (mask[i]) indices.push_back(static_cast<int>(i));
   }
   return indices;
-}
-
-// Rows over points 0..m-1 of a subset as rows over graph nodes, point k being node node_of_point[k]
-// (ascending, so every row stays ascending).
-UpperRows rowsOfNodes(UpperRows points_rows, const std::vector<int>& node_of_point, int num_nodes) {
-  UpperRows rows(num_nodes);
-  for (std::size_t k = 0; k < points_rows.size(); ++k) {
-    for (auto& e : points_rows[k]) e.to = node_of_point[e.to];
-    rows[node_of_point[k]] = std::move(points_rows[k]);
-  }
-  return rows;
 }
 
 // Sum over j's list, in its ascending order, of row[k] * S_jk: with row = i's weights scattered densely (0
@@ -433,28 +562,25 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   result.compatible_pairs = pass.compatible;
   if (stopRequested(stop)) {
     result.cancelled = true;
-    result.graph = graphFromUpperRows(n, UpperRows(n));
+    result.graph = graphFromUpperRows(n, std::vector<std::vector<UpperEdge>>(n));
     return result;
   }
-  UpperRows rows;
   if (pass.within_max_edges) {
-    // Unsampled, point k is node k: the rows are already the nodes'.
-    rows = result.sampled ? rowsOfNodes(std::move(pass.rows), nodes, n) : std::move(pass.rows);
-  } else {
-    // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
-    // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
-    const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
-    const std::vector<int> kept =
-        indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
-    std::vector<int> kept_nodes(kept.size());
-    for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
-    PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
-    rows = rowsOfNodes(std::move(dense.rows), kept_nodes, n);
-    result.reduced = true;
-    result.reduced_to = kept.size();
-    result.cancelled = stopRequested(stop);
+    result.graph = graphFromNodeRows(nodeRowsOf(pass, nodes, n, num_threads), num_threads);
+    return result;
   }
-  result.graph = graphFromUpperRows(n, rows);
+  // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
+  // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
+  const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
+  const std::vector<int> kept =
+      indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
+  std::vector<int> kept_nodes(kept.size());
+  for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
+  PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
+  result.reduced = true;
+  result.reduced_to = kept.size();
+  result.cancelled = stopRequested(stop);
+  result.graph = graphFromNodeRows(nodeRowsOf(dense, kept_nodes, n, num_threads), num_threads);
   return result;
 }
 
