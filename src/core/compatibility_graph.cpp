@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numeric>
 
@@ -275,33 +276,31 @@ NodeRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int n
   return rows;
 }
 
-// graphFromUpperRows on num_threads threads, the same graph bit for bit: each row goes to the tail of its
-// node's list; the lower entries of the nodes are split into one range of nodes per thread, each walking
-// all the rows from a binary search to its range, in ascending row order, so every list comes out sorted
-// without a sort, and in blocks of nodes so that the lines being written stay cached.
-CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads) {
-  const int n = static_cast<int>(rows.count.size());
+// A graph whose node v has degree[v] neighbours: its offsets, and its lists allocated.
+CompatibilityGraph graphWithDegrees(const std::vector<std::int64_t>& degree) {
+  const int n = static_cast<int>(degree.size());
   CompatibilityGraph graph;
   graph.num_nodes = n;
   graph.offsets.assign(n + 1, 0);
-  std::vector<std::int64_t> lower_prefix(n + 1, 0);
-  for (int v = 0; v < n; ++v) {
-    graph.offsets[v + 1] = graph.offsets[v] + rows.degree[v];
-    lower_prefix[v + 1] = lower_prefix[v] + rows.degree[v] - rows.count[v];
-  }
+  for (int v = 0; v < n; ++v) graph.offsets[v + 1] = graph.offsets[v] + degree[v];
   graph.neighbours.resize(graph.offsets.back());
   graph.weights.resize(graph.offsets.back());
+  return graph;
+}
+
+// Writes the lower entries of every list of `graph` (the rows that name its node, before its own row at
+// the tail): the nodes are split into one range per thread by equal shares of lower entries, each thread
+// walking all the rows from a binary search to its range, in ascending row order, so that every list
+// comes out ascending without a sort; and in blocks of nodes, so that the lines being written stay cached.
+// The rows may be the graph's own tails.
+void mirrorRows(const NodeRows& rows, CompatibilityGraph& graph, int num_threads) {
+  const int n = graph.num_nodes;
+  std::vector<std::int64_t> lower_prefix(n + 1, 0);
+  for (int v = 0; v < n; ++v) lower_prefix[v + 1] = lower_prefix[v] + graph.degree(v) - rows.count[v];
   // The lists written at once, a cache line of each in flight: 2048 nodes keep 256 kB of lines in cache.
   constexpr int kNodesPerBlock = 2048;
 #pragma omp parallel num_threads(num_threads)
   {
-#pragma omp for schedule(dynamic, 64) nowait
-    for (int v = 0; v < n; ++v) {
-      const std::int64_t at = graph.offsets[v + 1] - rows.count[v];
-      std::copy(rows.to[v], rows.to[v] + rows.count[v], graph.neighbours.begin() + at);
-      std::copy(rows.weight[v], rows.weight[v] + rows.count[v], graph.weights.begin() + at);
-    }
-    // Nodes [first, last) by equal shares of the lower entries.
     const int threads = omp_get_num_threads(), thread = omp_get_thread_num();
     const auto boundary = [&](int t) {
       if (t == threads) return n;
@@ -334,6 +333,20 @@ CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads) {
       }
     }
   }
+}
+
+// graphFromUpperRows on num_threads threads, the same graph bit for bit: each row copied to the tail of
+// its node's list, then mirrored to the lower entries.
+CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads) {
+  CompatibilityGraph graph = graphWithDegrees(rows.degree);
+  const int n = graph.num_nodes;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
+  for (int v = 0; v < n; ++v) {
+    const std::int64_t at = graph.offsets[v + 1] - rows.count[v];
+    std::copy(rows.to[v], rows.to[v] + rows.count[v], graph.neighbours.begin() + at);
+    std::copy(rows.weight[v], rows.weight[v] + rows.count[v], graph.weights.begin() + at);
+  }
+  mirrorRows(rows, graph, num_threads);
   return graph;
 }
 
@@ -458,8 +471,34 @@ std::int64_t upperBegin(const CompatibilityGraph& graph, int i) {
          graph.neighbours.begin();
 }
 
-// Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (256 bins between the
-// lightest and the heaviest): the cut that best separates them into two classes. `count` is how many.
+constexpr int kOtsuBins = 256;
+
+// The bin of weight w among kOtsuBins between low and low + span.
+int otsuBin(float w, double low, double span) {
+  return std::min(kOtsuBins - 1, int((w - low) / span * kOtsuBins));
+}
+
+// Otsu's cut of a histogram of `total` weights from low to low + span: the bin edge of the largest
+// between-class variance. The counts are integers: the same whatever order they were summed in.
+float otsuCut(const std::vector<double>& count, double total, double low, double span) {
+  double sum_all = 0.0;
+  for (int b = 0; b < kOtsuBins; ++b) sum_all += b * count[b];
+  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
+  int best_bin = 0;
+  for (int b = 0; b < kOtsuBins - 1; ++b) {
+    below += count[b];
+    sum_below += b * count[b];
+    const double above = total - below;
+    if (below == 0.0 || above == 0.0) continue;
+    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
+    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
+    if (between > best_variance) best_variance = between, best_bin = b;
+  }
+  return float(low + span * (best_bin + 1) / kOtsuBins);
+}
+
+// Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (kOtsuBins bins between
+// the lightest and the heaviest): the cut that best separates them into two classes. `edges` is how many.
 template <typename EachWeight>
 float otsuThreshold(EachWeight each_weight, std::size_t edges) {
   if (edges == 0) return 0.0f;
@@ -472,24 +511,17 @@ float otsuThreshold(EachWeight each_weight, std::size_t edges) {
   });
   const double low = lightest, span = double(heaviest) - low;
   if (!(span > 0.0)) return lightest;
-  constexpr int kBins = 256;
-  std::vector<double> count(kBins, 0.0);
-  each_weight([&](float w) { count[std::min(kBins - 1, int((w - low) / span * kBins))] += 1.0; });
-  const double total = double(edges);
-  double sum_all = 0.0;
-  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
-  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
-  int best_bin = 0;
-  for (int b = 0; b < kBins - 1; ++b) {
-    below += count[b];
-    sum_below += b * count[b];
-    const double above = total - below;
-    if (below == 0.0 || above == 0.0) continue;
-    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
-    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
-    if (between > best_variance) best_variance = between, best_bin = b;
-  }
-  return float(low + span * (best_bin + 1) / kBins);
+  std::vector<double> count(kOtsuBins, 0.0);
+  each_weight([&](float w) { count[otsuBin(w, low, span)] += 1.0; });
+  return otsuCut(count, double(edges), low, span);
+}
+
+// upperBegin of every node.
+std::vector<std::int64_t> upperBegins(const CompatibilityGraph& graph, int num_threads) {
+  std::vector<std::int64_t> begins(graph.num_nodes);
+#pragma omp parallel for schedule(static) num_threads(num_threads)
+  for (int i = 0; i < graph.num_nodes; ++i) begins[i] = upperBegin(graph, i);
+  return begins;
 }
 
 }  // namespace
@@ -618,60 +650,101 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }
   }
-  return triangleEdgesFromSums(fog, common, 0.0f);
+  return triangleEdgesFromSums(fog, common, 0.0f, num_threads);
 }
 
 CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const std::vector<float>& common,
-                                         float min_weight) {
-  // As graphFromUpperRows: the kept upper entries of each row go to the tail of its list in order, and to
-  // the next lower slot of their other end (rows in ascending order fill those in ascending order).
+                                         float min_weight, int num_threads) {
+  // The kept upper entries of each first-order row are its node's row in the graph: counted first (at
+  // both ends, for the offsets), then compacted straight into the tails of the lists and mirrored from
+  // there, as graphFromNodeRows does.
   const int n = fog.num_nodes;
+  const std::vector<std::int64_t> upper_begin = upperBegins(fog, num_threads);
   const auto kept = [&](std::int64_t p) {
-    return common[p] > 0.0f && fog.weights[p] * common[p] >= min_weight;
+    return (common[p] > 0.0f) & (fog.weights[p] * common[p] >= min_weight);  // both: no branch
   };
-  std::vector<std::int64_t> upper_begin(n), lower(n, 0), upper(n, 0);
-  for (int i = 0; i < n; ++i) {
-    upper_begin[i] = upperBegin(fog, i);
-    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-      if (kept(p)) ++upper[i], ++lower[fog.neighbours[p]];
+  NodeRows rows;
+  rows.count.assign(n, 0);
+  rows.degree.assign(n, 0);
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<std::int64_t> lower(n, 0);  // this thread's counts, summed below: integers, in any order
+#pragma omp for schedule(dynamic, 64)
+    for (int i = 0; i < n; ++i) {
+      int count = 0;
+      for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+        const bool keep = kept(p);  // close to a coin toss on dense graphs
+        count += keep;
+        lower[fog.neighbours[p]] += keep;
+      }
+      rows.count[i] = count;
     }
+#pragma omp critical
+    for (int v = 0; v < n; ++v) rows.degree[v] += lower[v];
   }
-  CompatibilityGraph graph;
-  graph.num_nodes = n;
-  graph.offsets.assign(n + 1, 0);
-  for (int i = 0; i < n; ++i) graph.offsets[i + 1] = graph.offsets[i] + lower[i] + upper[i];
-  graph.neighbours.resize(graph.offsets.back());
-  graph.weights.resize(graph.offsets.back());
-  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
+  for (int v = 0; v < n; ++v) rows.degree[v] += rows.count[v];
+  CompatibilityGraph graph = graphWithDegrees(rows.degree);
+  rows.to.assign(n, nullptr);
+  rows.weight.assign(n, nullptr);
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
   for (int i = 0; i < n; ++i) {
-    std::int64_t at = graph.offsets[i] + lower[i];
-    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-      if (!kept(p)) continue;
-      const int j = fog.neighbours[p];
-      const float weight = fog.weights[p] * common[p];
-      graph.neighbours[at] = j, graph.weights[at++] = weight;
-      graph.neighbours[cursor[j]] = i, graph.weights[cursor[j]++] = weight;
+    const std::int64_t tail = graph.offsets[i + 1] - rows.count[i];
+    int* const to = graph.neighbours.data() + tail;
+    float* const weight = graph.weights.data() + tail;
+    // Each entry written at the next free slot, kept or not, and the slot taken only when it is kept;
+    // the loop ends at the last kept one, so nothing is written past the tail.
+    int written = 0;
+    for (auto p = upper_begin[i]; written < rows.count[i]; ++p) {
+      to[written] = fog.neighbours[p];
+      weight[written] = fog.weights[p] * common[p];
+      written += kept(p);
     }
+    rows.to[i] = to;
+    rows.weight[i] = weight;
   }
+  mirrorRows(rows, graph, num_threads);
   return graph;
 }
 
-float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common,
-                          std::size_t& edges) {
-  // The weights gathered once, then binned in one tight pass.
-  std::vector<float> weights;
-  weights.reserve(fog.neighbours.size() / 2);
-  for (int i = 0; i < fog.num_nodes; ++i) {
-    for (auto p = upperBegin(fog, i); p < fog.offsets[i + 1]; ++p) {
-      if (common[p] > 0.0f) weights.push_back(fog.weights[p] * common[p]);
+float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common, std::size_t& edges,
+                          int num_threads) {
+  // otsuThreshold over the edges with a positive sum, in two parallel passes (extremes, then bins):
+  // minima, maxima and integer counts are the same in any order.
+  const int n = fog.num_nodes;
+  const std::vector<std::int64_t> upper_begin = upperBegins(fog, num_threads);
+  const float kInf = std::numeric_limits<float>::infinity();
+  float lightest = kInf, heaviest = -kInf;
+  std::int64_t count = 0;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) reduction(min : lightest) \
+    reduction(max : heaviest) reduction(+ : count)
+  for (int i = 0; i < n; ++i) {
+    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+      const bool edge = common[p] > 0.0f;
+      const float w = fog.weights[p] * common[p];
+      count += edge;
+      lightest = std::min(lightest, edge ? w : kInf);
+      heaviest = std::max(heaviest, edge ? w : -kInf);
     }
   }
-  edges = weights.size();
-  return otsuThreshold(
-      [&](auto visit) {
-        for (const float w : weights) visit(w);
-      },
-      edges);
+  edges = static_cast<std::size_t>(count);
+  if (edges == 0) return 0.0f;
+  const double low = lightest, span = double(heaviest) - low;
+  if (!(span > 0.0)) return lightest;
+  std::vector<std::int64_t> bins(kOtsuBins, 0);
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<std::int64_t> local(kOtsuBins + 1, 0);  // the last one for the entries of no edge
+#pragma omp for schedule(dynamic, 64)
+    for (int i = 0; i < n; ++i) {
+      for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+        const float w = fog.weights[p] * common[p];
+        ++local[common[p] > 0.0f ? otsuBin(w, low, span) : kOtsuBins];
+      }
+    }
+#pragma omp critical
+    for (int b = 0; b < kOtsuBins; ++b) bins[b] += local[b];
+  }
+  return otsuCut(std::vector<double>(bins.begin(), bins.end()), double(edges), low, span);
 }
 
 double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {

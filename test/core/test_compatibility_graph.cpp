@@ -531,6 +531,34 @@ TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
   expectSameGraph(off.pruned.graph, buildSecondOrderGraph(dense, 1), "dense_mean_degree 0");
 }
 
+// The counted sums' graph and its Otsu cut, built without the graph, are what building it and cutting it
+// give, bit for bit, on any thread count; some edges are in no triangle (a zero sum) and some nodes isolated.
+TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
+  for (const double density : {0.01, 0.1}) {
+    CompatibilityGraph fog = randomGraphWithWeightsFrom(1200, density, 0.99f, 3);
+    std::vector<char> keep(1200, 1);
+    for (int i = 0; i < 1200; i += 11) keep[i] = 0;
+    fog = keepNodes(fog, keep);
+    const std::vector<float> common = countedCommonSums(fog, 1);
+    ASSERT_GT(std::count(common.begin(), common.end(), 0.0f), 0);
+    const CompatibilityGraph all = triangleEdgesFromSums(fog, common, 0.0f, 1);
+    const std::string where = "density " + std::to_string(density);
+    expectValidGraph(all);
+    ASSERT_GT(all.numEdges(), 100u) << where;
+    const float cut = otsuEdgeThreshold(all);
+    const CompatibilityGraph heavy = withoutWeakEdges(all, cut);
+    ASSERT_LT(heavy.numEdges(), all.numEdges()) << where;
+    for (const int threads : {1, 2, 3}) {
+      const std::string with = where + ", " + std::to_string(threads) + " threads";
+      expectSameGraph(triangleEdgesFromSums(fog, common, 0.0f, threads), all, with);
+      expectSameGraph(triangleEdgesFromSums(fog, common, cut, threads), heavy, with);
+      std::size_t edges = 0;
+      EXPECT_EQ(otsuThresholdOfSums(fog, common, edges, threads), cut) << with;
+      EXPECT_EQ(edges, all.numEdges()) << with;
+    }
+  }
+}
+
 TEST(CompatibilityGraph, KeepNodes) {
   const CompatibilityGraph kept = keepNodes(twoTrianglesAndPendant(), {0, 1, 1, 1, 0});
   expectValidGraph(kept);
