@@ -195,7 +195,9 @@ PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std
                          int num_threads, const StopFlag* stop) {
   const int n = points.size();
   const float max_d2 = static_cast<float>(maxResidualSquared(params));
-  constexpr std::size_t kChunkEntries = std::size_t(1) << 18;
+  // 64 kB chunks (of at least a row): below glibc's mmap threshold, so that they come from the heap and,
+  // freed, stay there for the next graph instead of being mapped afresh, page by page, each time.
+  constexpr std::size_t kChunkEntries = std::size_t(1) << 14;
   PairPass pass;
   for (int t = 0; t < num_threads; ++t) pass.chunks.emplace_back(std::max(kChunkEntries, std::size_t(n)));
   pass.row_to.assign(n, nullptr);
