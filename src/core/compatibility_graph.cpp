@@ -5,7 +5,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <numeric>
+
+#include <omp.h>
 
 namespace mac_registration {
 namespace {
@@ -147,54 +151,205 @@ struct PointsSoA {
   }
 };
 
-using UpperRows = std::vector<std::vector<UpperEdge>>;
+// Rows written back to back, each whole in one chunk; chunks are allocated uninitialised and never moved,
+// so that growing neither zero-fills nor copies what is written.
+class RowChunks {
+ public:
+  explicit RowChunks(std::size_t chunk_entries) : chunk_entries_(chunk_entries) {}
 
-// One pass over every pair of a point set.
+  // Room for `entries` more at to() and weight(), in the current chunk or a new one.
+  void reserve(std::size_t entries) {
+    if (!to_.empty() && used_ + entries <= capacity_) return;
+    capacity_ = std::max(chunk_entries_, entries);
+    to_.emplace_back(new int[capacity_]);
+    weight_.emplace_back(new float[capacity_]);
+    used_ = 0;
+  }
+  int* to() { return to_.back().get() + used_; }
+  float* weight() { return weight_.back().get() + used_; }
+  void commit(std::size_t entries) { used_ += entries; }
+
+ private:
+  std::size_t chunk_entries_, capacity_ = 0, used_ = 0;
+  std::vector<std::unique_ptr<int[]>> to_;
+  std::vector<std::unique_ptr<float[]>> weight_;
+};
+
+// One pass over every pair of a point set. Each thread appends the rows it tests to chunks of its own, so
+// that no row needs an allocation of its own.
 struct PairPass {
-  UpperRows rows;                // every compatible pair (i, j > i), when within max_edges, else empty
-  std::vector<int> degree;       // compatible pairs of each point, all of them counted
-  std::size_t compatible = 0;    // compatible pairs in all
-  bool within_max_edges = true;  // compatible <= max_edges, and so rows are complete
+  std::vector<RowChunks> chunks;   // per thread: the rows it kept
+  std::vector<int*> row_to;        // row i's j, ascending, in its thread's chunks
+  std::vector<float*> row_weight;  // their weights
+  std::vector<int> row_count;      // entries of row i kept (all of them, or 0 past max_edges)
+  std::vector<int> degree;         // compatible pairs of each point, all of them counted
+  std::size_t compatible = 0;      // compatible pairs in all
+  bool within_max_edges = true;    // compatible <= max_edges, and so the rows are complete
 };
 
 // Tests every pair, counting each point's compatible pairs, and keeps the edges while there are at most
 // max_edges of them (memory stays bounded past that; the count goes on, so that a reduction can rank
 // nodes by their true degree). Counts and the outcome are the same whatever the thread count. A raised
-// stop leaves everything incomplete.
+// stop leaves everything incomplete, but the rows kept and the degrees still agree.
 PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std::size_t max_edges,
                          int num_threads, const StopFlag* stop) {
   const int n = points.size();
   const float max_d2 = static_cast<float>(maxResidualSquared(params));
+  // 64 kB chunks (of at least a row): below glibc's mmap threshold, so that they come from the heap and,
+  // freed, stay there for the next graph instead of being mapped afresh, page by page, each time.
+  constexpr std::size_t kChunkEntries = std::size_t(1) << 14;
   PairPass pass;
-  pass.rows.assign(n, {});
+  for (int t = 0; t < num_threads; ++t) pass.chunks.emplace_back(std::max(kChunkEntries, std::size_t(n)));
+  pass.row_to.assign(n, nullptr);
+  pass.row_weight.assign(n, nullptr);
+  pass.row_count.assign(n, 0);
   pass.degree.assign(n, 0);
   std::atomic<std::size_t> total{0};
   std::atomic<bool> overflow{false};
 #pragma omp parallel num_threads(num_threads)
   {
-    std::vector<float> d2(n), candidate_d2(n);
-    std::vector<int> candidates(n);
+    RowChunks& chunks = pass.chunks[omp_get_thread_num()];
+    std::vector<float> d2(n);
     std::vector<int> degree(n, 0);  // this thread's counts, summed below: integers, so in any order
 #pragma omp for schedule(dynamic, 16)
     for (int i = 0; i < n; ++i) {
       if (stopRequested(stop)) continue;
-      const int found = points.compatibleInRow(i, max_d2, d2.data(), candidates.data(), candidate_d2.data());
+      // The kernel writes the found pairs straight into place, their d^2 where their weights go.
+      chunks.reserve(static_cast<std::size_t>(n - i - 1));
+      int* const to = chunks.to();
+      float* const weight = chunks.weight();
+      const int found = points.compatibleInRow(i, max_d2, d2.data(), to, weight);
       degree[i] += found;
-      for (int c = 0; c < found; ++c) ++degree[candidates[c]];
+      for (int c = 0; c < found; ++c) ++degree[to[c]];
       if (total.fetch_add(found) + found > max_edges) overflow = true;
       if (overflow.load(std::memory_order_relaxed)) continue;
-      auto& row = pass.rows[i];
-      row.reserve(found);
-      for (int c = 0; c < found; ++c)
-        row.push_back({candidates[c], scoreFromResidualSquared(candidate_d2[c], params)});
+      for (int c = 0; c < found; ++c) weight[c] = scoreFromResidualSquared(weight[c], params);
+      pass.row_to[i] = to;
+      pass.row_weight[i] = weight;
+      pass.row_count[i] = found;
+      chunks.commit(static_cast<std::size_t>(found));
     }
 #pragma omp critical
     for (int i = 0; i < n; ++i) pass.degree[i] += degree[i];
   }
   pass.compatible = total;
   pass.within_max_edges = !overflow;
-  if (overflow) UpperRows().swap(pass.rows);
+  if (overflow) {
+    std::vector<RowChunks>().swap(pass.chunks);
+    pass.row_to.assign(n, nullptr);
+    pass.row_weight.assign(n, nullptr);
+    pass.row_count.assign(n, 0);
+  }
   return pass;
+}
+
+// The rows of the graph's nodes as spans of a pass's buffers: each ascending, above its node.
+struct NodeRows {
+  std::vector<const int*> to;
+  std::vector<const float*> weight;
+  std::vector<int> count;
+  std::vector<std::int64_t> degree;  // the node's whole degree: its row and the rows that name it
+};
+
+// The rows of `pass`, whose point k is node node_of_point[k] of a graph of num_nodes (ascending, so the
+// rows stay ascending); relabels the pass's entries in place. Where the pass kept its rows, its degrees are
+// their counts at both ends.
+NodeRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int num_nodes, int num_threads) {
+  NodeRows rows;
+  rows.to.assign(num_nodes, nullptr);
+  rows.weight.assign(num_nodes, nullptr);
+  rows.count.assign(num_nodes, 0);
+  rows.degree.assign(num_nodes, 0);
+  const int points = static_cast<int>(node_of_point.size());
+  bool identity = true;
+  for (int k = 0; k < points && identity; ++k) identity = node_of_point[k] == k;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
+  for (int k = 0; k < points; ++k) {
+    const int node = node_of_point[k];
+    int* to = pass.row_to[k];
+    if (!identity) {
+      for (int c = 0; c < pass.row_count[k]; ++c) to[c] = node_of_point[to[c]];
+    }
+    rows.to[node] = to;
+    rows.weight[node] = pass.row_weight[k];
+    rows.count[node] = pass.row_count[k];
+    rows.degree[node] = pass.within_max_edges ? pass.degree[k] : 0;
+  }
+  return rows;
+}
+
+// A graph whose node v has degree[v] neighbours: its offsets, and its lists allocated.
+CompatibilityGraph graphWithDegrees(const std::vector<std::int64_t>& degree) {
+  const int n = static_cast<int>(degree.size());
+  CompatibilityGraph graph;
+  graph.num_nodes = n;
+  graph.offsets.assign(n + 1, 0);
+  for (int v = 0; v < n; ++v) graph.offsets[v + 1] = graph.offsets[v] + degree[v];
+  graph.neighbours.resize(graph.offsets.back());
+  graph.weights.resize(graph.offsets.back());
+  return graph;
+}
+
+// Writes the lower entries of every list of `graph` (the rows that name its node, before its own row at
+// the tail): the nodes are split into one range per thread by equal shares of lower entries, each thread
+// walking all the rows from a binary search to its range, in ascending row order, so that every list
+// comes out ascending without a sort; and in blocks of nodes, so that the lines being written stay cached.
+// The rows may be the graph's own tails.
+void mirrorRows(const NodeRows& rows, CompatibilityGraph& graph, int num_threads) {
+  const int n = graph.num_nodes;
+  std::vector<std::int64_t> lower_prefix(n + 1, 0);
+  for (int v = 0; v < n; ++v) lower_prefix[v + 1] = lower_prefix[v] + graph.degree(v) - rows.count[v];
+  // The lists written at once, a cache line of each in flight: 2048 nodes keep 256 kB of lines in cache.
+  constexpr int kNodesPerBlock = 2048;
+#pragma omp parallel num_threads(num_threads)
+  {
+    const int threads = omp_get_num_threads(), thread = omp_get_thread_num();
+    const auto boundary = [&](int t) {
+      if (t == threads) return n;
+      const std::int64_t share = lower_prefix[n] * t / threads;
+      return static_cast<int>(std::lower_bound(lower_prefix.begin(), lower_prefix.begin() + n, share) -
+                              lower_prefix.begin());
+    };
+    const int first = boundary(thread), last = boundary(thread + 1);
+    std::vector<int> next(last);  // the first entry of each row not yet mirrored
+    for (int i = 0; i < last; ++i) {
+      next[i] =
+          static_cast<int>(std::lower_bound(rows.to[i], rows.to[i] + rows.count[i], first) - rows.to[i]);
+    }
+    std::vector<std::int64_t> cursor(graph.offsets.begin() + first, graph.offsets.begin() + last);
+    int* const neighbours = graph.neighbours.data();
+    float* const weights = graph.weights.data();
+    for (int block_begin = first; block_begin < last; block_begin += kNodesPerBlock) {
+      const int block_end = std::min(last, block_begin + kNodesPerBlock);
+      for (int i = 0; i < block_end; ++i) {
+        const int* const to = rows.to[i];
+        const float* const weight = rows.weight[i];
+        const int count = rows.count[i];
+        int k = next[i];
+        for (; k < count && to[k] < block_end; ++k) {
+          const std::int64_t at = cursor[to[k] - first]++;
+          neighbours[at] = i;
+          weights[at] = weight[k];
+        }
+        next[i] = k;
+      }
+    }
+  }
+}
+
+// graphFromUpperRows on num_threads threads, the same graph bit for bit: each row copied to the tail of
+// its node's list, then mirrored to the lower entries.
+CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads) {
+  CompatibilityGraph graph = graphWithDegrees(rows.degree);
+  const int n = graph.num_nodes;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
+  for (int v = 0; v < n; ++v) {
+    const std::int64_t at = graph.offsets[v + 1] - rows.count[v];
+    std::copy(rows.to[v], rows.to[v] + rows.count[v], graph.neighbours.begin() + at);
+    std::copy(rows.weight[v], rows.weight[v] + rows.count[v], graph.weights.begin() + at);
+  }
+  mirrorRows(rows, graph, num_threads);
+  return graph;
 }
 
 // `count` indices spread evenly over [0, n), ascending; all of them when count >= n.
@@ -211,17 +366,6 @@ std::vector<int> indicesOf(const std::vector<char>& mask) {
     if (mask[i]) indices.push_back(static_cast<int>(i));
   }
   return indices;
-}
-
-// Rows over points 0..m-1 of a subset as rows over graph nodes, point k being node node_of_point[k]
-// (ascending, so every row stays ascending).
-UpperRows rowsOfNodes(UpperRows points_rows, const std::vector<int>& node_of_point, int num_nodes) {
-  UpperRows rows(num_nodes);
-  for (std::size_t k = 0; k < points_rows.size(); ++k) {
-    for (auto& e : points_rows[k]) e.to = node_of_point[e.to];
-    rows[node_of_point[k]] = std::move(points_rows[k]);
-  }
-  return rows;
 }
 
 // Sum over j's list, in its ascending order, of row[k] * S_jk: with row = i's weights scattered densely (0
@@ -329,8 +473,34 @@ std::int64_t upperBegin(const CompatibilityGraph& graph, int i) {
          graph.neighbours.begin();
 }
 
-// Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (256 bins between the
-// lightest and the heaviest): the cut that best separates them into two classes. `count` is how many.
+constexpr int kOtsuBins = 256;
+
+// The bin of weight w among kOtsuBins between low and low + span.
+int otsuBin(float w, double low, double span) {
+  return std::min(kOtsuBins - 1, int((w - low) / span * kOtsuBins));
+}
+
+// Otsu's cut of a histogram of `total` weights from low to low + span: the bin edge of the largest
+// between-class variance. The counts are integers: the same whatever order they were summed in.
+float otsuCut(const std::vector<double>& count, double total, double low, double span) {
+  double sum_all = 0.0;
+  for (int b = 0; b < kOtsuBins; ++b) sum_all += b * count[b];
+  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
+  int best_bin = 0;
+  for (int b = 0; b < kOtsuBins - 1; ++b) {
+    below += count[b];
+    sum_below += b * count[b];
+    const double above = total - below;
+    if (below == 0.0 || above == 0.0) continue;
+    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
+    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
+    if (between > best_variance) best_variance = between, best_bin = b;
+  }
+  return float(low + span * (best_bin + 1) / kOtsuBins);
+}
+
+// Otsu's cut of a set of weights that `each_weight(visit)` lists, each edge once (kOtsuBins bins between
+// the lightest and the heaviest): the cut that best separates them into two classes. `edges` is how many.
 template <typename EachWeight>
 float otsuThreshold(EachWeight each_weight, std::size_t edges) {
   if (edges == 0) return 0.0f;
@@ -343,24 +513,17 @@ float otsuThreshold(EachWeight each_weight, std::size_t edges) {
   });
   const double low = lightest, span = double(heaviest) - low;
   if (!(span > 0.0)) return lightest;
-  constexpr int kBins = 256;
-  std::vector<double> count(kBins, 0.0);
-  each_weight([&](float w) { count[std::min(kBins - 1, int((w - low) / span * kBins))] += 1.0; });
-  const double total = double(edges);
-  double sum_all = 0.0;
-  for (int b = 0; b < kBins; ++b) sum_all += b * count[b];
-  double below = 0.0, sum_below = 0.0, best_variance = -1.0;
-  int best_bin = 0;
-  for (int b = 0; b < kBins - 1; ++b) {
-    below += count[b];
-    sum_below += b * count[b];
-    const double above = total - below;
-    if (below == 0.0 || above == 0.0) continue;
-    const double mean_below = sum_below / below, mean_above = (sum_all - sum_below) / above;
-    const double between = below * above * (mean_below - mean_above) * (mean_below - mean_above);
-    if (between > best_variance) best_variance = between, best_bin = b;
-  }
-  return float(low + span * (best_bin + 1) / kBins);
+  std::vector<double> count(kOtsuBins, 0.0);
+  each_weight([&](float w) { count[otsuBin(w, low, span)] += 1.0; });
+  return otsuCut(count, double(edges), low, span);
+}
+
+// upperBegin of every node.
+std::vector<std::int64_t> upperBegins(const CompatibilityGraph& graph, int num_threads) {
+  std::vector<std::int64_t> begins(graph.num_nodes);
+#pragma omp parallel for schedule(static) num_threads(num_threads)
+  for (int i = 0; i < graph.num_nodes; ++i) begins[i] = upperBegin(graph, i);
+  return begins;
 }
 
 }  // namespace
@@ -433,28 +596,25 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   result.compatible_pairs = pass.compatible;
   if (stopRequested(stop)) {
     result.cancelled = true;
-    result.graph = graphFromUpperRows(n, UpperRows(n));
+    result.graph = graphFromUpperRows(n, std::vector<std::vector<UpperEdge>>(n));
     return result;
   }
-  UpperRows rows;
   if (pass.within_max_edges) {
-    // Unsampled, point k is node k: the rows are already the nodes'.
-    rows = result.sampled ? rowsOfNodes(std::move(pass.rows), nodes, n) : std::move(pass.rows);
-  } else {
-    // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
-    // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
-    const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
-    const std::vector<int> kept =
-        indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
-    std::vector<int> kept_nodes(kept.size());
-    for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
-    PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
-    rows = rowsOfNodes(std::move(dense.rows), kept_nodes, n);
-    result.reduced = true;
-    result.reduced_to = kept.size();
-    result.cancelled = stopRequested(stop);
+    result.graph = graphFromNodeRows(nodeRowsOf(pass, nodes, n, num_threads), num_threads);
+    return result;
   }
-  result.graph = graphFromUpperRows(n, rows);
+  // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
+  // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
+  const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
+  const std::vector<int> kept =
+      indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
+  std::vector<int> kept_nodes(kept.size());
+  for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
+  PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
+  result.reduced = true;
+  result.reduced_to = kept.size();
+  result.cancelled = stopRequested(stop);
+  result.graph = graphFromNodeRows(nodeRowsOf(dense, kept_nodes, n, num_threads), num_threads);
   return result;
 }
 
@@ -492,60 +652,101 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }
   }
-  return triangleEdgesFromSums(fog, common, 0.0f);
+  return triangleEdgesFromSums(fog, common, 0.0f, num_threads);
 }
 
 CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const std::vector<float>& common,
-                                         float min_weight) {
-  // As graphFromUpperRows: the kept upper entries of each row go to the tail of its list in order, and to
-  // the next lower slot of their other end (rows in ascending order fill those in ascending order).
+                                         float min_weight, int num_threads) {
+  // The kept upper entries of each first-order row are its node's row in the graph: counted first (at
+  // both ends, for the offsets), then compacted straight into the tails of the lists and mirrored from
+  // there, as graphFromNodeRows does.
   const int n = fog.num_nodes;
+  const std::vector<std::int64_t> upper_begin = upperBegins(fog, num_threads);
   const auto kept = [&](std::int64_t p) {
-    return common[p] > 0.0f && fog.weights[p] * common[p] >= min_weight;
+    return (common[p] > 0.0f) & (fog.weights[p] * common[p] >= min_weight);  // both: no branch
   };
-  std::vector<std::int64_t> upper_begin(n), lower(n, 0), upper(n, 0);
-  for (int i = 0; i < n; ++i) {
-    upper_begin[i] = upperBegin(fog, i);
-    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-      if (kept(p)) ++upper[i], ++lower[fog.neighbours[p]];
+  NodeRows rows;
+  rows.count.assign(n, 0);
+  rows.degree.assign(n, 0);
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<std::int64_t> lower(n, 0);  // this thread's counts, summed below: integers, in any order
+#pragma omp for schedule(dynamic, 64)
+    for (int i = 0; i < n; ++i) {
+      int count = 0;
+      for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+        const bool keep = kept(p);  // close to a coin toss on dense graphs
+        count += keep;
+        lower[fog.neighbours[p]] += keep;
+      }
+      rows.count[i] = count;
     }
+#pragma omp critical
+    for (int v = 0; v < n; ++v) rows.degree[v] += lower[v];
   }
-  CompatibilityGraph graph;
-  graph.num_nodes = n;
-  graph.offsets.assign(n + 1, 0);
-  for (int i = 0; i < n; ++i) graph.offsets[i + 1] = graph.offsets[i] + lower[i] + upper[i];
-  graph.neighbours.resize(graph.offsets.back());
-  graph.weights.resize(graph.offsets.back());
-  std::vector<std::int64_t> cursor(graph.offsets.begin(), graph.offsets.end() - 1);
+  for (int v = 0; v < n; ++v) rows.degree[v] += rows.count[v];
+  CompatibilityGraph graph = graphWithDegrees(rows.degree);
+  rows.to.assign(n, nullptr);
+  rows.weight.assign(n, nullptr);
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
   for (int i = 0; i < n; ++i) {
-    std::int64_t at = graph.offsets[i] + lower[i];
-    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-      if (!kept(p)) continue;
-      const int j = fog.neighbours[p];
-      const float weight = fog.weights[p] * common[p];
-      graph.neighbours[at] = j, graph.weights[at++] = weight;
-      graph.neighbours[cursor[j]] = i, graph.weights[cursor[j]++] = weight;
+    const std::int64_t tail = graph.offsets[i + 1] - rows.count[i];
+    int* const to = graph.neighbours.data() + tail;
+    float* const weight = graph.weights.data() + tail;
+    // Each entry written at the next free slot, kept or not, and the slot taken only when it is kept;
+    // the loop ends at the last kept one, so nothing is written past the tail.
+    int written = 0;
+    for (auto p = upper_begin[i]; written < rows.count[i]; ++p) {
+      to[written] = fog.neighbours[p];
+      weight[written] = fog.weights[p] * common[p];
+      written += kept(p);
     }
+    rows.to[i] = to;
+    rows.weight[i] = weight;
   }
+  mirrorRows(rows, graph, num_threads);
   return graph;
 }
 
-float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common,
-                          std::size_t& edges) {
-  // The weights gathered once, then binned in one tight pass.
-  std::vector<float> weights;
-  weights.reserve(fog.neighbours.size() / 2);
-  for (int i = 0; i < fog.num_nodes; ++i) {
-    for (auto p = upperBegin(fog, i); p < fog.offsets[i + 1]; ++p) {
-      if (common[p] > 0.0f) weights.push_back(fog.weights[p] * common[p]);
+float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common, std::size_t& edges,
+                          int num_threads) {
+  // otsuThreshold over the edges with a positive sum, in two parallel passes (extremes, then bins):
+  // minima, maxima and integer counts are the same in any order.
+  const int n = fog.num_nodes;
+  const std::vector<std::int64_t> upper_begin = upperBegins(fog, num_threads);
+  const float kInf = std::numeric_limits<float>::infinity();
+  float lightest = kInf, heaviest = -kInf;
+  std::int64_t count = 0;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) reduction(min : lightest) \
+    reduction(max : heaviest) reduction(+ : count)
+  for (int i = 0; i < n; ++i) {
+    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+      const bool edge = common[p] > 0.0f;
+      const float w = fog.weights[p] * common[p];
+      count += edge;
+      lightest = std::min(lightest, edge ? w : kInf);
+      heaviest = std::max(heaviest, edge ? w : -kInf);
     }
   }
-  edges = weights.size();
-  return otsuThreshold(
-      [&](auto visit) {
-        for (const float w : weights) visit(w);
-      },
-      edges);
+  edges = static_cast<std::size_t>(count);
+  if (edges == 0) return 0.0f;
+  const double low = lightest, span = double(heaviest) - low;
+  if (!(span > 0.0)) return lightest;
+  std::vector<std::int64_t> bins(kOtsuBins, 0);
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<std::int64_t> local(kOtsuBins + 1, 0);  // the last one for the entries of no edge
+#pragma omp for schedule(dynamic, 64)
+    for (int i = 0; i < n; ++i) {
+      for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
+        const float w = fog.weights[p] * common[p];
+        ++local[common[p] > 0.0f ? otsuBin(w, low, span) : kOtsuBins];
+      }
+    }
+#pragma omp critical
+    for (int b = 0; b < kOtsuBins; ++b) bins[b] += local[b];
+  }
+  return otsuCut(std::vector<double>(bins.begin(), bins.end()), double(edges), low, span);
 }
 
 double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {

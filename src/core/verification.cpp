@@ -9,6 +9,8 @@
 #include <numeric>
 #include <sstream>
 
+#include <omp.h>
+
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/refinement.hpp"
 
@@ -105,6 +107,65 @@ double logPoissonTail(std::size_t k, double lambda) {
   return std::log(std::max(1.0 - lower, 1e-300));
 }
 
+// The finite targets sorted by their cell of a tau grid, so that the ones within tau of a point lie in its
+// 27 cells. The cell key packs x, y, z (21 bits each, two's complement wrapped) with z lowest, so that the
+// three cells of one (x, y) column around a point are one run of keys, found by one binary search.
+struct TargetGrid {
+  static constexpr std::uint64_t kFieldMask = 0x1fffff;
+
+  double tau;
+  std::vector<std::uint64_t> keys;  // ascending
+  Eigen::Matrix3Xd points;          // the targets in the order of keys
+
+  TargetGrid(const Eigen::Matrix3Xd& targets, double cell_size) : tau(cell_size) {
+    std::vector<std::pair<std::uint64_t, Eigen::Index>> cells;
+    cells.reserve(static_cast<std::size_t>(targets.cols()));
+    for (Eigen::Index j = 0; j < targets.cols(); ++j) {
+      if (targets.col(j).allFinite()) cells.emplace_back(key(cellOf(targets.col(j)), 0, 0, 0), j);
+    }
+    std::sort(cells.begin(), cells.end());
+    keys.resize(cells.size());
+    points.resize(3, Eigen::Index(cells.size()));
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      keys[k] = cells[k].first;
+      points.col(Eigen::Index(k)) = targets.col(cells[k].second);
+    }
+  }
+
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
+    return Eigen::Vector3i(int(std::floor(p.x() / tau)), int(std::floor(p.y() / tau)),
+                           int(std::floor(p.z() / tau)));
+  }
+
+  // The key of cell + (dx, dy, dz), each field wrapped to 21 bits (unsigned: no overflow).
+  static std::uint64_t key(const Eigen::Vector3i& cell, int dx, int dy, int dz) {
+    const auto field = [](int v, int d) {
+      return std::uint64_t((std::uint32_t(v) + std::uint32_t(d)) & kFieldMask);
+    };
+    return (field(cell.x(), dx) << 42) | (field(cell.y(), dy) << 21) | field(cell.z(), dz);
+  }
+
+  // visit(t) for every target t in cells cell + (dx, dy, -1..1): the keys from z - 1 to z + 1, in two runs
+  // where the z field wraps between them.
+  template <typename Visit>
+  void forEachInColumn(const Eigen::Vector3i& cell, int dx, int dy, Visit visit) const {
+    const std::uint64_t first = key(cell, dx, dy, -1);
+    const std::uint64_t column = first & ~kFieldMask;
+    if ((first & kFieldMask) + 2 <= kFieldMask) {
+      forEachInKeys(first, first + 2, visit);
+    } else {
+      forEachInKeys(first, column | kFieldMask, visit);
+      forEachInKeys(column, key(cell, dx, dy, 1), visit);
+    }
+  }
+
+  template <typename Visit>
+  void forEachInKeys(std::uint64_t lowest, std::uint64_t highest, Visit visit) const {
+    auto it = std::lower_bound(keys.begin(), keys.end(), lowest);
+    for (; it != keys.end() && *it <= highest; ++it) visit(Eigen::Index(it - keys.begin()));
+  }
+};
+
 struct RivalCandidate {
   int hypothesis = 0;
   double exclusive_score = 0.0;
@@ -129,40 +190,25 @@ double rmsDisplacement(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, c
   return std::sqrt(std::max(squared, 0.0));
 }
 
-double chanceInliers(const CorrespondenceSet& c, const Eigen::Isometry3d& T, double tau) {
+double chanceInliers(const CorrespondenceSet& c, const Eigen::Isometry3d& T, double tau, int num_threads) {
   const Eigen::Index n = c.target_points.cols();
   if (n == 0 || c.source_points.cols() != n || !(tau > 0.0)) return 0.0;
-  // The targets sorted by their cell of a tau grid: the ones within tau of a point lie in its 27 cells.
-  const auto cellOf = [&](const Eigen::Vector3d& p) {
-    return Eigen::Vector3i(int(std::floor(p.x() / tau)), int(std::floor(p.y() / tau)),
-                           int(std::floor(p.z() / tau)));
-  };
-  const auto key = [](const Eigen::Vector3i& v) {
-    const auto u = [](int x) { return std::uint64_t(std::uint32_t(x) & 0x1fffffu); };
-    return (u(v.x()) << 42) | (u(v.y()) << 21) | u(v.z());
-  };
-  std::vector<std::pair<std::uint64_t, Eigen::Index>> cells;
-  cells.reserve(static_cast<std::size_t>(n));
-  for (Eigen::Index j = 0; j < n; ++j) {
-    if (c.target_points.col(j).allFinite()) cells.emplace_back(key(cellOf(c.target_points.col(j))), j);
-  }
-  std::sort(cells.begin(), cells.end());
+  const TargetGrid grid(c.target_points, tau);
   const double tau2 = tau * tau;
-  double pairs = 0.0;
+  const int threads = num_threads > 0 ? num_threads : omp_get_max_threads();
+  // Integer counts: the total is the same in any order, so the same whatever the thread count.
+  std::int64_t pairs = 0;
+#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : pairs)
   for (Eigen::Index i = 0; i < n; ++i) {
     const Eigen::Vector3d p = T * c.source_points.col(i);
     if (!p.allFinite()) continue;
-    const Eigen::Vector3i centre = cellOf(p);
+    const Eigen::Vector3i centre = grid.cellOf(p);
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          const std::uint64_t k = key(centre + Eigen::Vector3i(dx, dy, dz));
-          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(k, Eigen::Index(0)));
-          for (; it != cells.end() && it->first == k; ++it)
-            pairs += (c.target_points.col(it->second) - p).squaredNorm() < tau2;
-        }
+        grid.forEachInColumn(centre, dx, dy,
+                             [&](Eigen::Index t) { pairs += (grid.points.col(t) - p).squaredNorm() < tau2; });
   }
-  return pairs / double(n);
+  return double(pairs) / double(n);
 }
 
 double chanceSignificance(std::size_t inliers, double chance_inliers, std::size_t hypotheses) {
@@ -209,7 +255,7 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
     signals.rival_displacement = rmsDisplacement(best, rival, moments);
   }
 
-  signals.chance_inliers = chanceInliers(c, best, tau);
+  signals.chance_inliers = chanceInliers(c, best, tau, params.num_threads);
   signals.chance_significance =
       chanceSignificance(result.counters.inliers, signals.chance_inliers, hypotheses.size());
 

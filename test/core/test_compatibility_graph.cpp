@@ -184,10 +184,48 @@ TEST(FirstOrderGraph, BitIdenticalToThePairByPairTest) {
     const CorrespondenceSet c = rigidProblem(237, 60, 5);
     const CompatibilityGraph expected = pairByPairFirstOrder(c, params);
     ASSERT_GT(expected.numEdges(), 60u * 59u / 2u);  // the inliers' pairs and some chance ones
-    const FirstOrderGraph fog = buildFirstOrderGraph(c, params, 2);
-    EXPECT_EQ(fog.graph.offsets, expected.offsets);
-    EXPECT_EQ(fog.graph.neighbours, expected.neighbours);
-    EXPECT_EQ(fog.graph.weights, expected.weights);
+    for (const int threads : {1, 2, 3}) {
+      const FirstOrderGraph fog = buildFirstOrderGraph(c, params, threads);
+      EXPECT_EQ(fog.graph.offsets, expected.offsets) << threads << " threads";
+      EXPECT_EQ(fog.graph.neighbours, expected.neighbours) << threads << " threads";
+      EXPECT_EQ(fog.graph.weights, expected.weights) << threads << " threads";
+    }
+  }
+}
+
+// A subset's floats are those of the whole set (centred on the centroid of all the correspondences), so
+// the graph of an evenly spaced sample, or of the nodes a reduction keeps, is the pair-by-pair graph on
+// those nodes bit for bit, whatever the thread count.
+TEST(FirstOrderGraph, BoundedGraphsAreThePairByPairGraphOnTheirNodes) {
+  const GraphParams defaults;
+  const CorrespondenceSet sampled_set = rigidProblem(2500, 500, 11);
+  std::vector<char> sample(2500, 0);
+  for (int k = 0; k < 1000; ++k) sample[k * 5 / 2] = 1;
+  const CompatibilityGraph expected_sampled = keepNodes(pairByPairFirstOrder(sampled_set, defaults), sample);
+
+  const CorrespondenceSet dense_set = rigidProblem(2000, 300, 5);
+  const CompatibilityGraph dense_full = pairByPairFirstOrder(dense_set, defaults);
+  std::vector<double> degree(2000);
+  for (int i = 0; i < 2000; ++i) degree[i] = dense_full.degree(i);
+  const CompatibilityGraph expected_reduced = keepNodes(dense_full, strongestNodes(degree, 200));
+  ASSERT_GT(expected_reduced.numEdges(), 10000u);
+
+  for (const int threads : {1, 2, 3}) {
+    GraphParams params;
+    params.max_correspondences = 1000;
+    const FirstOrderGraph sampled = buildFirstOrderGraph(sampled_set, params, threads);
+    ASSERT_TRUE(sampled.sampled);
+    EXPECT_EQ(sampled.graph.offsets, expected_sampled.offsets) << threads << " threads";
+    EXPECT_EQ(sampled.graph.neighbours, expected_sampled.neighbours) << threads << " threads";
+    EXPECT_EQ(sampled.graph.weights, expected_sampled.weights) << threads << " threads";
+
+    params = GraphParams();
+    params.max_edges = 20000;  // keeps sqrt(40 000) = 200 nodes
+    const FirstOrderGraph reduced = buildFirstOrderGraph(dense_set, params, threads);
+    ASSERT_TRUE(reduced.reduced);
+    EXPECT_EQ(reduced.graph.offsets, expected_reduced.offsets) << threads << " threads";
+    EXPECT_EQ(reduced.graph.neighbours, expected_reduced.neighbours) << threads << " threads";
+    EXPECT_EQ(reduced.graph.weights, expected_reduced.weights) << threads << " threads";
   }
 }
 
@@ -491,6 +529,34 @@ TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
   EXPECT_FALSE(off.counted);
   EXPECT_FALSE(off.pruned.reduced);
   expectSameGraph(off.pruned.graph, buildSecondOrderGraph(dense, 1), "dense_mean_degree 0");
+}
+
+// The counted sums' graph and its Otsu cut, built without the graph, are what building it and cutting it
+// give, bit for bit, on any thread count; some edges are in no triangle (a zero sum) and some nodes isolated.
+TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
+  for (const double density : {0.01, 0.1}) {
+    CompatibilityGraph fog = randomGraphWithWeightsFrom(1200, density, 0.99f, 3);
+    std::vector<char> keep(1200, 1);
+    for (int i = 0; i < 1200; i += 11) keep[i] = 0;
+    fog = keepNodes(fog, keep);
+    const std::vector<float> common = countedCommonSums(fog, 1);
+    ASSERT_GT(std::count(common.begin(), common.end(), 0.0f), 0);
+    const CompatibilityGraph all = triangleEdgesFromSums(fog, common, 0.0f, 1);
+    const std::string where = "density " + std::to_string(density);
+    expectValidGraph(all);
+    ASSERT_GT(all.numEdges(), 100u) << where;
+    const float cut = otsuEdgeThreshold(all);
+    const CompatibilityGraph heavy = withoutWeakEdges(all, cut);
+    ASSERT_LT(heavy.numEdges(), all.numEdges()) << where;
+    for (const int threads : {1, 2, 3}) {
+      const std::string with = where + ", " + std::to_string(threads) + " threads";
+      expectSameGraph(triangleEdgesFromSums(fog, common, 0.0f, threads), all, with);
+      expectSameGraph(triangleEdgesFromSums(fog, common, cut, threads), heavy, with);
+      std::size_t edges = 0;
+      EXPECT_EQ(otsuThresholdOfSums(fog, common, edges, threads), cut) << with;
+      EXPECT_EQ(edges, all.numEdges()) << with;
+    }
+  }
 }
 
 TEST(CompatibilityGraph, KeepNodes) {

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <numeric>
 #include <random>
 
@@ -298,6 +300,49 @@ TEST(ChanceLevel, ChanceInliersIsTheMeanOverAllPairings) {
       pairs += (T * c.source_points.col(i) - c.target_points.col(j)).norm() < tau;
   EXPECT_GT(pairs, 300.0);  // the test means something
   EXPECT_DOUBLE_EQ(chanceInliers(c, T, tau), pairs / 300.0);
+}
+
+TEST(ChanceLevel, ChanceInliersCountsPointsOnCellBordersAsThePairwiseTestDoes) {
+  // Points on a lattice of tau / 2 around the origin: many lie on cell borders, many pairs exactly tau
+  // apart (not inliers: the residual must be below tau), and the cells -1 and 0 meet where the packed key
+  // of a cell wraps. A translation of whole lattice steps keeps every coordinate exact; NaN points count
+  // for nothing.
+  const double tau = 0.25;
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> step(-6, 6);
+  const Eigen::Index n = 400;
+  CorrespondenceSet c;
+  c.source_points.resize(3, n);
+  c.target_points.resize(3, n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    c.source_points.col(k) = 0.5 * tau * Eigen::Vector3d(step(rng), step(rng), step(rng));
+    c.target_points.col(k) = 0.5 * tau * Eigen::Vector3d(step(rng), step(rng), step(rng));
+  }
+  c.source_points.col(7).setConstant(std::numeric_limits<double>::quiet_NaN());
+  c.target_points.col(9).setConstant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = 0.5 * tau * Eigen::Vector3d(1.0, -2.0, 1.0);
+  std::int64_t pairs = 0, at_tau = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double distance = (T * c.source_points.col(i) - c.target_points.col(j)).norm();
+      pairs += distance < tau;
+      at_tau += distance == tau;
+    }
+  EXPECT_GT(pairs, n);  // the test means something
+  EXPECT_GT(at_tau, n / 2);
+  EXPECT_EQ(chanceInliers(c, T, tau), double(pairs) / double(n));
+}
+
+TEST(ChanceLevel, ChanceInliersIsTheSameWhateverTheThreadCount) {
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(3000, 0.1, 8));
+  const double tau = 0.05;
+  const double one = chanceInliers(problem.correspondences, problem.T_target_source, tau, 1);
+  EXPECT_GT(one, 0.3);  // the test means something
+  for (const int threads : {0, 2, 3, 7}) {
+    EXPECT_EQ(chanceInliers(problem.correspondences, problem.T_target_source, tau, threads), one)
+        << threads << " threads";
+  }
 }
 
 TEST(ChanceLevel, SignificanceRisesWithTheConsensusAndFallsWithTheHypothesesTried) {

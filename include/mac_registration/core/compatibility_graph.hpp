@@ -78,14 +78,15 @@ std::vector<float> countedCommonSums(const CompatibilityGraph& first_order, int 
 
 // The graph of those sums (the edges with a positive sum, weighted S_ij * sum) with only its edges of
 // weight >= min_weight: buildCountedSecondOrderGraph's graph for 0, and withoutWeakEdges of it for
-// another weight, bit for bit, without building it first.
+// another weight, bit for bit, without building it first. The same graph whatever num_threads.
 CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& first_order,
-                                         const std::vector<float>& common, float min_weight);
+                                         const std::vector<float>& common, float min_weight,
+                                         int num_threads = 1);
 
 // otsuEdgeThreshold of triangleEdgesFromSums(first_order, common, 0) and that graph's edge count, without
-// building it.
+// building it. The same whatever num_threads.
 float otsuThresholdOfSums(const CompatibilityGraph& first_order, const std::vector<float>& common,
-                          std::size_t& edges);
+                          std::size_t& edges, int num_threads = 1);
 
 // Whether the bitsets of buildCountedSecondOrderGraph on this graph stay within 64 MB.
 bool neighbourCountsFit(const CompatibilityGraph& graph);
