@@ -151,7 +151,7 @@ std::vector<float> countedCommonSums(const CompatibilityGraph& fog, int num_thre
 
 CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
                                                 const StopFlag* stop) {
-  return triangleEdgesFromSums(fog, countedCommonSums(fog, num_threads, stop), 0.0f);
+  return triangleEdgesFromSums(fog, countedCommonSums(fog, num_threads, stop), 0.0f, num_threads);
 }
 
 }  // namespace mac_registration

@@ -52,11 +52,11 @@ SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order,
   }
   const std::vector<float> common = countedCommonSums(first_order, num_threads, stop);
   std::size_t edges = 0;
-  const float threshold = otsuThresholdOfSums(first_order, common, edges);
+  const float threshold = otsuThresholdOfSums(first_order, common, edges, num_threads);
   // pruneDenseGraph's test, on the second-order graph's edge count.
   const bool dense =
       first_order.num_nodes > 0 && 2.0 * double(edges) / first_order.num_nodes > dense_mean_degree;
-  out.pruned.graph = triangleEdgesFromSums(first_order, common, dense ? threshold : 0.0f);
+  out.pruned.graph = triangleEdgesFromSums(first_order, common, dense ? threshold : 0.0f, num_threads);
   out.pruned.reduced = dense;
   out.pruned.removed_edges = dense ? edges - out.pruned.graph.numEdges() : 0;
   return out;
