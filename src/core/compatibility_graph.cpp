@@ -438,20 +438,25 @@ __attribute__((optimize("no-tree-slp-vectorize"))) void commonNeighbourSums(cons
 // same weight; the lists stay ascending, as a filter of ascending lists. Two sequential passes over the
 // lists, where rebuilding from upper rows would scatter every edge twice.
 template <typename KeepEntry, typename WeightOf>
-CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep, WeightOf weight_of) {
+CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep, WeightOf weight_of,
+                                 int num_threads) {
   const int n = graph.num_nodes;
   CompatibilityGraph out;
   out.num_nodes = n;
   out.offsets.assign(n + 1, 0);
+  // Each list is counted, then written, by one thread: the same graph whatever the thread count.
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
   for (int i = 0; i < n; ++i) {
     std::int64_t kept = 0;
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) kept += keep(i, p) ? 1 : 0;
-    out.offsets[i + 1] = out.offsets[i] + kept;
+    out.offsets[i + 1] = kept;
   }
+  for (int i = 0; i < n; ++i) out.offsets[i + 1] += out.offsets[i];
   out.neighbours.resize(out.offsets.back());
   out.weights.resize(out.offsets.back());
-  std::int64_t next = 0;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
   for (int i = 0; i < n; ++i) {
+    std::int64_t next = out.offsets[i];
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
       if (!keep(i, p)) continue;
       out.neighbours[next] = graph.neighbours[p];
@@ -462,8 +467,9 @@ CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep
 }
 
 template <typename KeepEntry>
-CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep) {
-  return filteredGraph(graph, keep, [&](std::int64_t p) { return graph.weights[p]; });
+CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep, int num_threads) {
+  return filteredGraph(
+      graph, keep, [&](std::int64_t p) { return graph.weights[p]; }, num_threads);
 }
 
 // First position of node i's upper neighbours (j > i): the tail of its ascending list.
@@ -749,27 +755,33 @@ float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float
   return otsuCut(std::vector<double>(bins.begin(), bins.end()), double(edges), low, span);
 }
 
-double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
-  std::vector<int> kept_degree(graph.num_nodes, 0);
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    if (!keep[i]) continue;
-    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p)
-      kept_degree[i] += keep[graph.neighbours[p]] != 0;
-  }
-  // Integers below 2^53: the double sum is exact, the same as secondOrderWork of the kept graph.
-  double work = 0.0;
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    if (!keep[i]) continue;
-    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
-      const int j = graph.neighbours[p];
-      if (j > i && keep[j]) work += kept_degree[j];
+double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep, double limit,
+                              int num_threads) {
+  // secondOrderWork charges each upper edge (i, j) the degree of j: node j's share is its kept degree times
+  // its kept lower neighbours, both read from its own list in one pass. Integers: exact in any order, and a
+  // share alone above the limit puts the whole above it.
+  std::int64_t work = 0;
+  std::atomic<bool> over{false};
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : work) num_threads(num_threads)
+  for (int j = 0; j < graph.num_nodes; ++j) {
+    if (!keep[j] || over.load(std::memory_order_relaxed)) continue;
+    std::int64_t kept = 0, lower = 0;
+    for (auto p = graph.offsets[j]; p < graph.offsets[j + 1]; ++p) {
+      const int i = graph.neighbours[p];
+      const std::int64_t counted = keep[i] != 0;
+      kept += counted;
+      lower += counted & (i < j);
     }
+    work += kept * lower;
+    if (double(work) > limit) over = true;
   }
-  return work;
+  return over ? std::numeric_limits<double>::infinity() : double(work);
 }
 
-CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep) {
-  return filteredGraph(graph, [&](int i, std::int64_t p) { return keep[i] && keep[graph.neighbours[p]]; });
+CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep,
+                             int num_threads) {
+  return filteredGraph(
+      graph, [&](int i, std::int64_t p) { return keep[i] && keep[graph.neighbours[p]]; }, num_threads);
 }
 
 std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t count) {
@@ -795,8 +807,9 @@ float otsuEdgeThreshold(const CompatibilityGraph& graph) {
       graph.numEdges());
 }
 
-CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold) {
-  return filteredGraph(graph, [&](int, std::int64_t p) { return graph.weights[p] >= threshold; });
+CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold, int num_threads) {
+  return filteredGraph(
+      graph, [&](int, std::int64_t p) { return graph.weights[p] >= threshold; }, num_threads);
 }
 
 std::vector<int> coreNumbers(const CompatibilityGraph& graph) {

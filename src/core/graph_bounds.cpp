@@ -5,7 +5,8 @@
 
 namespace mac_registration {
 
-BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop) {
+BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int num_threads,
+                                  const StopFlag* stop) {
   BoundedGraph out;
   if (secondOrderWork(graph) <= budget) {
     out.graph = std::move(graph);
@@ -22,8 +23,9 @@ BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const
   do {
     nodes = nodes * 7 / 10;
     keep = strongestNodes(degree, nodes);
-  } while (nodes > 3 && !stopRequested(stop) && secondOrderWorkOfNodes(graph, keep) > budget);
-  out.graph = keepNodes(graph, keep);
+  } while (nodes > 3 && !stopRequested(stop) &&
+           secondOrderWorkOfNodes(graph, keep, budget, num_threads) > budget);
+  out.graph = keepNodes(graph, keep, num_threads);
   out.reduced = true;
   out.kept_nodes = nodes;
   out.removed_edges = graph.numEdges() - out.graph.numEdges();

@@ -202,7 +202,8 @@ CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& p
   const auto start = Clock::now();
   BoundedGraph pruned;
   if (params.graph.second_order) {
-    BoundedGraph bounded = boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, stop);
+    BoundedGraph bounded =
+        boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, threads, stop);
     if (bounded.reduced) {
       result.graph_reduced = true;
       result.counters.graph_nodes = bounded.kept_nodes;

@@ -603,6 +603,22 @@ TEST(CompatibilityGraph, FiltersMatchTheGraphRebuiltFromTheKeptEdges) {
   EXPECT_LT(heavy.numEdges(), g.numEdges());
   EXPECT_DOUBLE_EQ(secondOrderWorkOfNodes(g, keep), secondOrderWork(expected_kept));
   EXPECT_DOUBLE_EQ(secondOrderWorkOfNodes(g, std::vector<char>(g.num_nodes, 1)), secondOrderWork(g));
+  // On any thread count: the same graphs, and the same work, or +infinity past a limit below it.
+  const double work = secondOrderWork(expected_kept);
+  for (const int threads : {1, 2, 3}) {
+    const CompatibilityGraph kept_t = keepNodes(g, keep, threads);
+    EXPECT_EQ(kept_t.offsets, expected_kept.offsets) << threads;
+    EXPECT_EQ(kept_t.neighbours, expected_kept.neighbours) << threads;
+    EXPECT_EQ(kept_t.weights, expected_kept.weights) << threads;
+    const CompatibilityGraph heavy_t = withoutWeakEdges(g, threshold, threads);
+    EXPECT_EQ(heavy_t.neighbours, expected_heavy.neighbours) << threads;
+    EXPECT_EQ(heavy_t.weights, expected_heavy.weights) << threads;
+    EXPECT_EQ(secondOrderWorkOfNodes(g, keep, work, threads), work) << threads;
+    EXPECT_EQ(secondOrderWorkOfNodes(g, keep, work - 1.0, threads), std::numeric_limits<double>::infinity())
+        << threads;
+    EXPECT_EQ(secondOrderWorkOfNodes(g, keep, 0.0, threads), std::numeric_limits<double>::infinity())
+        << threads;
+  }
 }
 
 TEST(CompatibilityGraph, StrongestNodes) {

@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "mac_registration/core/correspondence_set.hpp"
@@ -97,11 +98,15 @@ double countedSecondOrderWork(const CompatibilityGraph& graph);
 // Multiply-adds buildSecondOrderGraph would spend on this graph.
 double secondOrderWork(const CompatibilityGraph& graph);
 
-// secondOrderWork(keepNodes(graph, keep)), without building that graph.
-double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep);
+// secondOrderWork(keepNodes(graph, keep)), without building that graph; +infinity as soon as it is known
+// to exceed `limit` (a bound's test needs no more). The same whatever num_threads.
+double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector<char>& keep,
+                              double limit = std::numeric_limits<double>::infinity(), int num_threads = 1);
 
 // The graph with only the nodes where keep[node] is true; node ids are unchanged, dropped nodes isolated.
-CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep);
+// The same graph whatever num_threads (as withoutWeakEdges).
+CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep,
+                             int num_threads = 1);
 
 // The `count` nodes of highest `score` (ties to the lower index) as a keep mask.
 std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t count);
@@ -112,7 +117,7 @@ std::vector<char> strongestNodes(const std::vector<double>& score, std::size_t c
 float otsuEdgeThreshold(const CompatibilityGraph& graph);
 
 // The graph without its edges lighter than `threshold`.
-CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold);
+CompatibilityGraph withoutWeakEdges(const CompatibilityGraph& graph, float threshold, int num_threads = 1);
 
 // Core number of each node (the largest k such that the node is in the k-core), Batagelj-Zaversnik, O(E).
 // The largest is the graph's degeneracy, which bounds clique sizes and the cost of the clique search.

@@ -22,7 +22,8 @@ struct BoundedGraph {
 // graph.max_second_order_work [multiply-adds]: a graph whose second-order pass would cost more keeps only
 // its highest-degree nodes (inliers of a dense consensus have the highest degree), shrinking by 30 % a
 // round until it fits.
-BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, const StopFlag* stop = nullptr);
+BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int num_threads = 1,
+                                  const StopFlag* stop = nullptr);
 
 // The second-order graph of `first_order` after pruneDenseGraph's cut, and whether its weights are the
 // counted estimate.
