@@ -775,7 +775,7 @@ double secondOrderWorkOfNodes(const CompatibilityGraph& graph, const std::vector
     work += kept * lower;
     if (double(work) > limit) over = true;
   }
-  return over ? std::numeric_limits<double>::infinity() : double(work);
+  return over || double(work) > limit ? std::numeric_limits<double>::infinity() : double(work);
 }
 
 CompatibilityGraph keepNodes(const CompatibilityGraph& graph, const std::vector<char>& keep,
