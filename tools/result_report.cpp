@@ -26,9 +26,13 @@ void printVerification(std::ostream& out, const MacResult& r) {
   if (!std::isnan(s.rival_rotation_deg))
     out << std::setprecision(0) << " (a pose " << s.rival_rotation_deg << " deg, " << std::setprecision(2)
         << s.rival_displacement << " m away)";
+  if (!std::isnan(s.chance_inliers))
+    out << std::setprecision(1) << "; inliers by chance " << s.chance_inliers << " (significance "
+        << s.chance_significance << " nats)";
   if (!std::isnan(s.aligned_overlap))
     out << "; aligned overlap " << shareText(s.aligned_overlap) << ", seen on surface "
         << shareText(s.seen_on_surface) << ", in free space " << shareText(s.free_space_violation);
+  if (!std::isnan(s.surface_agreement)) out << ", along the surfaces " << shareText(s.surface_agreement);
   out << "\n";
   for (std::size_t k = 0; k < r.alternatives.size(); ++k) {
     const PoseAlternative& a = r.alternatives[k];

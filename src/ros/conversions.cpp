@@ -288,6 +288,9 @@ void fillVerification(const MacResult& r, mac_registration::RegistrationResult& 
   msg.aligned_overlap = s.aligned_overlap;
   msg.seen_on_surface = s.seen_on_surface;
   msg.free_space_violation = s.free_space_violation;
+  msg.surface_agreement = s.surface_agreement;
+  msg.chance_inliers = s.chance_inliers;
+  msg.chance_significance = s.chance_significance;
   msg.alternatives.clear();
   for (const PoseAlternative& a : r.alternatives) {
     mac_registration::CompetingPose alternative;

@@ -115,6 +115,10 @@ TEST_F(UnverifiedResults, TheServiceAnswersBothAndDiagnosticsCountTheRejection) 
   EXPECT_TRUE(verified.has_estimate);
   EXPECT_TRUE(toIsometry(verified.estimate).isApprox(toIsometry(verified.transform), 1e-9));
   EXPECT_GT(verified.time_verification_ms, 0.0);
+  // The evidence behind it: far above chance, and the surfaces lie along each other.
+  EXPECT_GE(verified.chance_inliers, 0.0);
+  EXPECT_GT(verified.chance_significance, 10.0);
+  EXPECT_GT(verified.surface_agreement, 0.5);
 
   std::mutex mutex;
   std::size_t rejected = 0;

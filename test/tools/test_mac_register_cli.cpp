@@ -94,6 +94,7 @@ TEST(MacRegisterCli, CloudsThatDoNotOverlapExitOneAndSayWhy) {
   EXPECT_TRUE(contains(r.output, "verification.min_confidence")) << r.output;
   EXPECT_TRUE(contains(r.output, "T_target_source (unverified")) << r.output;
   EXPECT_TRUE(contains(r.output, "verification: confidence")) << r.output;
+  EXPECT_TRUE(contains(r.output, "inliers by chance")) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir.file("T.txt")));  // no transform to act on
 }
 
