@@ -54,11 +54,25 @@ const DescriptorIndex::Packed& DescriptorIndex::packed() const {
         [](float* f) { std::free(f); }};
     std::fill(packed->squared_norms.get(), packed->squared_norms.get() + lanes,
               std::numeric_limits<float>::infinity());
+    std::vector<float> norm(d.size());
     for (int i = 0; i < packed->count; ++i) {
-      const int tile = i / kPackedLanes, lane = i % kPackedLanes;
-      float norm = 0.0f;
-      for (int b = 0; b < kDimensions; ++b) norm += d[i].histogram[b] * d[i].histogram[b];
-      packed->squared_norms[i] = norm;
+      float sum = 0.0f;
+      for (int b = 0; b < kDimensions; ++b) sum += d[i].histogram[b] * d[i].histogram[b];
+      norm[i] = sum;
+    }
+    std::vector<int> by_norm(d.size());
+    for (int i = 0; i < packed->count; ++i) by_norm[i] = i;
+    std::stable_sort(by_norm.begin(), by_norm.end(), [&](int a, int b) { return norm[a] < norm[b]; });
+    packed->descriptor_of_slot.assign(lanes, -1);
+    packed->tile_norm_low.assign(packed->tiles, std::numeric_limits<double>::infinity());
+    packed->tile_norm_high.assign(packed->tiles, 0.0);
+    for (int slot = 0; slot < packed->count; ++slot) {
+      const int i = by_norm[slot], tile = slot / kPackedLanes, lane = slot % kPackedLanes;
+      packed->descriptor_of_slot[slot] = i;
+      packed->squared_norms[slot] = norm[i];
+      const double euclidean = std::sqrt(double(norm[i]));
+      packed->tile_norm_low[tile] = std::min(packed->tile_norm_low[tile], euclidean);
+      packed->tile_norm_high[tile] = std::max(packed->tile_norm_high[tile], euclidean);
       for (int b = 0; b < kDimensions; ++b)
         packed->values[(std::size_t(tile) * kDimensions + b) * kPackedLanes + lane] = d[i].histogram[b];
     }
@@ -80,14 +94,14 @@ constexpr int kQueryGroup = 8;
 constexpr int kQueryChunk = 64;
 constexpr int kTargetChunkTiles = 64;
 
-// The best two of one query so far, squared distances; targets arrive in ascending index.
+// The best two of one query so far, squared distances; targets arrive in any order.
 struct BestTwo {
   float first = std::numeric_limits<float>::infinity();
   float second = std::numeric_limits<float>::infinity();
   int index = -1;
-  // Strict comparisons: a target at the nearest distance found before stays second (lowest index wins).
+  // Of two targets at the nearest distance the lower index is kept, the other's distance is the second.
   void offer(float d2, int target) {
-    if (d2 < first) {
+    if (d2 < first || (d2 == first && target >= 0 && target < index)) {
       second = first;
       first = d2;
       index = target;
@@ -105,12 +119,13 @@ struct ScanState {
   BestTwo* best[kQueryGroup];
   float query_norm[kQueryGroup];  // squared Euclidean norms
   const float* target_norms;      // squared Euclidean norms, indexed by tile * kLanes + lane; +inf padding
+  const int* target_of_slot;      // the descriptor at tile * kLanes + lane, -1 in the padding
   float* column_d2;               // null without the mutual check; else indexed by tile * kLanes + lane
   int* column_query;
 };
 
-void offerLanes(const float* d2, int first_target, int count, BestTwo& best) {
-  for (int lane = 0; lane < count; ++lane) best.offer(d2[lane], first_target + lane);
+void offerLanes(const float* d2, const int* targets, int count, BestTwo& best) {
+  for (int lane = 0; lane < count; ++lane) best.offer(d2[lane], targets[lane]);
 }
 
 // The squared distance as the kd-tree sums it: bin by bin, separate multiply and add (not inlined: the
@@ -174,13 +189,13 @@ __attribute__((target("avx512f"))) void scanTilesAvx512(const ScanState& s, cons
       if (__builtin_popcount(maybe) > kScalarRechecks) {  // the first tiles: all 16 at once
         alignas(64) float d2[kLanes];
         _mm512_store_ps(d2, exactSquaredDistances16(s.query[k], t));
-        offerLanes(d2, tile * kLanes, kLanes, *s.best[k]);  // padding lanes are +inf: never taken
+        offerLanes(d2, s.target_of_slot + tile * kLanes, kLanes, *s.best[k]);  // padding: +inf, never taken
         continue;
       }
-      while (maybe) {  // ascending lanes: ascending target index
+      while (maybe) {
         const int lane = __builtin_ctz(maybe);
         maybe &= maybe - 1;
-        s.best[k]->offer(exactSquaredDistance(s.query[k], t, lane), tile * kLanes + lane);
+        s.best[k]->offer(exactSquaredDistance(s.query[k], t, lane), s.target_of_slot[tile * kLanes + lane]);
       }
     }
     if (s.column_d2) {
@@ -231,7 +246,8 @@ __attribute__((target_clones("avx2", "default"), optimize("fp-contract=off"))) v
         }
       }
     }
-    for (int k = 0; k < distinct_queries; ++k) offerLanes(acc[k], tile * kLanes, kLanes, *s.best[k]);
+    for (int k = 0; k < distinct_queries; ++k)
+      offerLanes(acc[k], s.target_of_slot + tile * kLanes, kLanes, *s.best[k]);
     if (s.column_d2) {
       float* cd = s.column_d2 + std::size_t(tile) * kLanes;
       int* cq = s.column_query + std::size_t(tile) * kLanes;
@@ -253,26 +269,85 @@ ScanTiles scanTilesForThisCpu() {
   return __builtin_cpu_supports("avx512f") ? scanTilesAvx512 : scanTilesPortable;
 }
 
-// One OpenMP chunk: queries [begin, end) against every target, tile range by tile range.
-void scanQueryChunk(const FpfhCloud& queries, const std::vector<float>& query_norms, int begin, int end,
-                    const DescriptorIndex::Packed& packed, ScanTiles scan, std::vector<BestTwo>& best,
-                    float* column_d2, int* column_query) {
+// The scan state of queries [q, q + kQueryGroup) of `order` (the last one repeated for a short group).
+ScanState groupState(const FpfhCloud& queries, const std::vector<float>& query_norms, const int* order, int q,
+                     int end, const DescriptorIndex::Packed& packed, std::vector<BestTwo>& best,
+                     int& distinct) {
+  ScanState s;
+  distinct = std::min(kQueryGroup, end - q);
+  for (int k = 0; k < kQueryGroup; ++k) {
+    const int i = order[q + std::min(k, distinct - 1)];
+    s.query[k] = queries[i].histogram;
+    s.query_index[k] = i;
+    s.best[k] = &best[i];
+    s.query_norm[k] = query_norms[i];
+  }
+  s.target_norms = packed.squared_norms.get();
+  s.target_of_slot = packed.descriptor_of_slot.data();
+  s.column_d2 = nullptr;
+  s.column_query = nullptr;
+  return s;
+}
+
+// One OpenMP chunk: queries [begin, end) of `order` against every target, tile range by tile range (the
+// mutual check needs every pair: each target's nearest query).
+void scanQueryChunk(const FpfhCloud& queries, const std::vector<float>& query_norms, const int* order,
+                    int begin, int end, const DescriptorIndex::Packed& packed, ScanTiles scan,
+                    std::vector<BestTwo>& best, float* column_d2, int* column_query) {
   for (int tile_begin = 0; tile_begin < packed.tiles; tile_begin += kTargetChunkTiles) {
     const int tile_end = std::min(packed.tiles, tile_begin + kTargetChunkTiles);
     for (int q = begin; q < end; q += kQueryGroup) {
-      ScanState s;
-      const int distinct = std::min(kQueryGroup, end - q);
-      for (int k = 0; k < kQueryGroup; ++k) {
-        const int i = q + std::min(k, distinct - 1);
-        s.query[k] = queries[i].histogram;
-        s.query_index[k] = i;
-        s.best[k] = &best[i];
-        s.query_norm[k] = query_norms[i];
-      }
-      s.target_norms = packed.squared_norms.get();
+      int distinct = 0;
+      ScanState s = groupState(queries, query_norms, order, q, end, packed, best, distinct);
       s.column_d2 = column_d2;
       s.column_query = column_query;
       scan(s, packed.values.get(), tile_begin, tile_end, distinct);
+    }
+  }
+}
+
+// Whether no target of `tile` can come within the second nearest distance of any query of the group:
+// | |q| - |t| | <= |q - t|, with margins above the rounding of the norms (2e-6 relative) and of the
+// direct sum (33 terms: 2e-6 relative), so that a skipped target could neither be nearer than the second
+// nor tie it.
+bool tileBeyondGroup(const ScanState& s, int distinct, const double* query_norm,
+                     const DescriptorIndex::Packed& packed, int tile, bool above) {
+  for (int k = 0; k < distinct; ++k) {
+    const double second = s.best[k]->second;
+    if (!std::isfinite(second)) return false;
+    const double gap =
+        above ? packed.tile_norm_low[tile] - query_norm[k] : query_norm[k] - packed.tile_norm_high[tile];
+    const double margin = 1e-5 * (query_norm[k] + packed.tile_norm_high[tile]) + 1e-6;
+    if (gap <= margin || (gap - margin) * (gap - margin) * (1.0 - 1e-5) <= second) return false;
+  }
+  return true;
+}
+
+// Queries [begin, end) of `order` (ascending norm), a group at a time, against the tiles outward from the
+// group's norm: the tiles are in norm order, so once a tile is beyond every query of the group in one
+// direction, every later tile that way is too. Each query's two nearest are those of the full scan.
+void scanQueryChunkByNorm(const FpfhCloud& queries, const std::vector<float>& query_norms, const int* order,
+                          int begin, int end, const DescriptorIndex::Packed& packed, ScanTiles scan,
+                          std::vector<BestTwo>& best) {
+  for (int q = begin; q < end; q += kQueryGroup) {
+    int distinct = 0;
+    const ScanState s = groupState(queries, query_norms, order, q, end, packed, best, distinct);
+    double norm[kQueryGroup];
+    for (int k = 0; k < kQueryGroup; ++k) norm[k] = std::sqrt(double(s.query_norm[k]));
+    const float middle = s.query_norm[distinct / 2];
+    const float* sorted = packed.squared_norms.get();
+    const int start_slot = int(std::lower_bound(sorted, sorted + packed.count, middle) - sorted);
+    int above = std::min(packed.tiles - 1, start_slot / kLanes), below = above - 1;
+    bool up = true, down = below >= 0;
+    while (up || down) {
+      if (up) {
+        up = above < packed.tiles && !tileBeyondGroup(s, distinct, norm, packed, above, true);
+        if (up) scan(s, packed.values.get(), above, above + 1, distinct), ++above;
+      }
+      if (down) {
+        down = below >= 0 && !tileBeyondGroup(s, distinct, norm, packed, below, false);
+        if (down) scan(s, packed.values.get(), below, below + 1, distinct), --below;
+      }
     }
   }
 }
@@ -302,6 +377,14 @@ std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& qu
   std::vector<BestTwo> best(queries.size());
   std::vector<float> query_norms(queries.size());
   for (int q = 0; q < count; ++q) query_norms[q] = squaredNorm(queries[q].histogram);
+  // Without the reverse search the queries go by ascending norm, so that a group's queries share the tiles
+  // near their norm; with it every pair is scanned, in query order (the columns keep the lowest query).
+  std::vector<int> order(queries.size());
+  for (int q = 0; q < count; ++q) order[q] = q;
+  if (!reverse) {
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return query_norms[a] < query_norms[b]; });
+  }
   const std::size_t columns = std::size_t(packed.tiles) * kLanes;
   const int chunks = (count + kQueryChunk - 1) / kQueryChunk;
   threads = std::max(1, std::min(threads, chunks));
@@ -320,20 +403,25 @@ std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& qu
     int* cq = reverse ? column_query.data() + offset : nullptr;
 #pragma omp for schedule(dynamic, 1)
     for (int c = 0; c < chunks; ++c) {
-      scanQueryChunk(queries, query_norms, c * kQueryChunk, std::min(count, (c + 1) * kQueryChunk), packed,
-                     scan, best, cd, cq);
+      const int begin = c * kQueryChunk, end = std::min(count, (c + 1) * kQueryChunk);
+      if (reverse) {
+        scanQueryChunk(queries, query_norms, order.data(), begin, end, packed, scan, best, cd, cq);
+      } else {
+        scanQueryChunkByNorm(queries, query_norms, order.data(), begin, end, packed, scan, best);
+      }
     }
   }
   std::vector<NearestDescriptors> result(queries.size());
   for (int q = 0; q < count; ++q) result[q] = fromSquared(best[q]);
   if (reverse) {
     reverse->assign(packed.count, NearestDescriptors{});
-    for (int t = 0; t < packed.count; ++t) {
+    for (int slot = 0; slot < packed.count; ++slot) {
+      const int t = packed.descriptor_of_slot[slot];
       float d2 = std::numeric_limits<float>::infinity();
       int who = -1;
       for (int th = 0; th < threads; ++th) {
-        const float d = column_d2[columns * th + t];
-        const int w = column_query[columns * th + t];
+        const float d = column_d2[columns * th + slot];
+        const int w = column_query[columns * th + slot];
         if (w >= 0 && (who < 0 || d < d2 || (d == d2 && w < who))) {
           d2 = d;
           who = w;

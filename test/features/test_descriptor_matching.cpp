@@ -178,6 +178,34 @@ TEST(BruteForceSearch, OneAndTwoThreadsGiveTheSameResults) {
   }
 }
 
+// Without the reverse search the scan skips the tiles whose norms are too far from the queries'; with it
+// every pair is scanned. Both must give every query the same two nearest, on real fragments, on sets
+// with exact ties (and copies at distance 0) and on one thread or two.
+void expectPrunedScanIsTheFullScan(const FpfhCloud& queries, const FpfhCloud::ConstPtr& targets) {
+  const DescriptorIndex index(targets);
+  std::vector<NearestDescriptors> reverse;
+  const auto full = nearestDescriptorsBruteForce(queries, index, 1, &reverse);
+  for (const int threads : {1, 2}) {
+    const auto pruned = nearestDescriptorsBruteForce(queries, index, threads);
+    ASSERT_EQ(pruned.size(), full.size());
+    for (std::size_t q = 0; q < full.size(); ++q) {
+      ASSERT_EQ(pruned[q].nearest, full[q].nearest) << "query " << q << ", " << threads << " threads";
+      ASSERT_EQ(pruned[q].nearest_distance, full[q].nearest_distance) << "query " << q;
+      ASSERT_EQ(pruned[q].second_distance, full[q].second_distance) << "query " << q;
+    }
+  }
+}
+
+TEST(BruteForceSearch, TheScanByNormIsTheScanOfEveryPair) {
+  const Fragments& f = fragments();
+  expectPrunedScanIsTheFullScan(*f.f4, f.f0);
+  expectPrunedScanIsTheFullScan(*f.f21, f.f4);
+  for (const unsigned seed : {1u, 2u, 3u}) {
+    const TiedSets s = tiedSets(203, 157, seed);
+    expectPrunedScanIsTheFullScan(*s.queries, s.targets);
+  }
+}
+
 // The matches at eps 0 (brute force) against the matches at eps 0 built from the kd-tree's neighbours
 // here: the same on real fragments (no ties there) for mutual on and off and the ratio test, 1 and 2
 // threads.
