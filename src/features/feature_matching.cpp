@@ -36,6 +36,16 @@ const DescriptorIndex::Tree& DescriptorIndex::tree() const {
   return *tree_;
 }
 
+namespace {
+
+// A norm as a sort key: a descriptor with a NaN bin (never a match) goes last, and the order stays a
+// strict weak one.
+float sortableNorm(float squared_norm) {
+  return std::isnan(squared_norm) ? std::numeric_limits<float>::infinity() : squared_norm;
+}
+
+}  // namespace
+
 const DescriptorIndex::Packed& DescriptorIndex::packed() const {
   std::call_once(packed_once_, [this] {
     auto packed = std::make_unique<Packed>();
@@ -62,7 +72,8 @@ const DescriptorIndex::Packed& DescriptorIndex::packed() const {
     }
     std::vector<int> by_norm(d.size());
     for (int i = 0; i < packed->count; ++i) by_norm[i] = i;
-    std::stable_sort(by_norm.begin(), by_norm.end(), [&](int a, int b) { return norm[a] < norm[b]; });
+    std::stable_sort(by_norm.begin(), by_norm.end(),
+                     [&](int a, int b) { return sortableNorm(norm[a]) < sortableNorm(norm[b]); });
     packed->descriptor_of_slot.assign(lanes, -1);
     packed->tile_norm_low.assign(packed->tiles, std::numeric_limits<double>::infinity());
     packed->tile_norm_high.assign(packed->tiles, 0.0);
@@ -382,8 +393,9 @@ std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& qu
   std::vector<int> order(queries.size());
   for (int q = 0; q < count; ++q) order[q] = q;
   if (!reverse) {
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return query_norms[a] < query_norms[b]; });
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return sortableNorm(query_norms[a]) < sortableNorm(query_norms[b]);
+    });
   }
   const std::size_t columns = std::size_t(packed.tiles) * kLanes;
   const int chunks = (count + kQueryChunk - 1) / kQueryChunk;

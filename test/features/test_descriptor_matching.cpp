@@ -204,6 +204,11 @@ TEST(BruteForceSearch, TheScanByNormIsTheScanOfEveryPair) {
     const TiedSets s = tiedSets(203, 157, seed);
     expectPrunedScanIsTheFullScan(*s.queries, s.targets);
   }
+  // A NaN bin (never a match, and no norm to sort by) in a query and in a target.
+  TiedSets s = tiedSets(203, 157, 4);
+  (*s.queries)[5].histogram[7] = std::numeric_limits<float>::quiet_NaN();
+  (*s.targets)[11].histogram[3] = std::numeric_limits<float>::quiet_NaN();
+  expectPrunedScanIsTheFullScan(*s.queries, s.targets);
 }
 
 // The matches at eps 0 (brute force) against the matches at eps 0 built from the kd-tree's neighbours
