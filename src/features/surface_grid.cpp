@@ -102,6 +102,26 @@ SurfaceGrid::SurfaceGrid(const PointCloud& surface, double radius)
   }
 }
 
+// FLANN's float distance to the point in `slot`, summed in FLANN's order, as a (distance bits, index) key:
+// non-negative floats order as their bit patterns, so keys order by distance, then index.
+inline std::uint64_t SurfaceGrid::keyOf(const Eigen::Vector3f& q, std::size_t slot, bool& within) const {
+  const float dx = q.x() - x_[slot], dy = q.y() - y_[slot], dz = q.z() - z_[slot];
+  float d = 0.0f;
+  d += dx * dx;
+  d += dy * dy;
+  d += dz * dz;
+  within = d < squared_radius_;
+  std::uint32_t bits;
+  std::memcpy(&bits, &d, sizeof bits);
+  return std::uint64_t{bits} << 32 | static_cast<std::uint32_t>(indices_[slot]);
+}
+
+void SurfaceGrid::fromKey(std::uint64_t key, int& index, float& squared_distance) {
+  index = static_cast<int>(key & 0xffffffffu);
+  const auto bits = static_cast<std::uint32_t>(key >> 32);
+  std::memcpy(&squared_distance, &bits, sizeof bits);
+}
+
 void SurfaceGrid::search(const pcl::PointXYZ& query, bool sorted, Neighbourhood& out,
                          std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& scratch) const {
   if (!pcl::isFinite(query)) {  // PCL gives such a keypoint no neighbours (a NaN descriptor)
@@ -117,26 +137,16 @@ void SurfaceGrid::search(const pcl::PointXYZ& query, bool sorted, Neighbourhood&
   keys.resize(candidates);
   for (int r = 0; r < rows; ++r) {
     for (std::size_t s = ranges[r][0]; s < ranges[r][1]; ++s) {
-      const float dx = q.x() - x_[s], dy = q.y() - y_[s], dz = q.z() - z_[s];
-      float d = 0.0f;
-      d += dx * dx;
-      d += dy * dy;
-      d += dz * dz;
-      std::uint32_t bits;
-      std::memcpy(&bits, &d, sizeof bits);  // non-negative floats order as their bit patterns
-      keys[count] = std::uint64_t{bits} << 32 | static_cast<std::uint32_t>(indices_[s]);
-      count += d < squared_radius_;
+      bool within = false;
+      keys[count] = keyOf(q, s, within);
+      count += within;
     }
   }
   keys.resize(count);
   if (sorted) sortKeys(keys, scratch);
   out.indices.resize(keys.size());
   out.squared_distances.resize(keys.size());
-  for (std::size_t j = 0; j < keys.size(); ++j) {
-    out.indices[j] = static_cast<int>(keys[j] & 0xffffffffu);
-    const auto bits = static_cast<std::uint32_t>(keys[j] >> 32);
-    std::memcpy(&out.squared_distances[j], &bits, sizeof bits);
-  }
+  for (std::size_t j = 0; j < keys.size(); ++j) fromKey(keys[j], out.indices[j], out.squared_distances[j]);
 }
 
 bool SurfaceGrid::nearest(const pcl::PointXYZ& query, int& index, float& squared_distance) const {
@@ -148,21 +158,13 @@ bool SurfaceGrid::nearest(const pcl::PointXYZ& query, int& index, float& squared
   std::uint64_t best = std::numeric_limits<std::uint64_t>::max();
   for (int r = 0; r < rows; ++r) {
     for (std::size_t s = ranges[r][0]; s < ranges[r][1]; ++s) {
-      const float dx = q.x() - x_[s], dy = q.y() - y_[s], dz = q.z() - z_[s];
-      float d = 0.0f;
-      d += dx * dx;
-      d += dy * dy;
-      d += dz * dz;
-      std::uint32_t bits;
-      std::memcpy(&bits, &d, sizeof bits);
-      const std::uint64_t key = std::uint64_t{bits} << 32 | static_cast<std::uint32_t>(indices_[s]);
-      best = d < squared_radius_ ? std::min(best, key) : best;
+      bool within = false;
+      const std::uint64_t key = keyOf(q, s, within);
+      best = within ? std::min(best, key) : best;
     }
   }
   if (best == std::numeric_limits<std::uint64_t>::max()) return false;
-  index = static_cast<int>(best & 0xffffffffu);
-  const auto bits = static_cast<std::uint32_t>(best >> 32);
-  std::memcpy(&squared_distance, &bits, sizeof bits);
+  fromKey(best, index, squared_distance);
   return true;
 }
 

@@ -37,6 +37,8 @@ class SurfaceGrid {
  private:
   // The slot ranges of the (up to) 9 rows of 3 cells around the query's cell; returns how many.
   int candidateRanges(const pcl::PointXYZ& query, std::size_t (&ranges)[9][2]) const;
+  std::uint64_t keyOf(const Eigen::Vector3f& q, std::size_t slot, bool& within) const;
+  static void fromKey(std::uint64_t key, int& index, float& squared_distance);
   Eigen::Vector3i cellOf(const pcl::PointXYZ& p) const;
   std::size_t cellIndex(const Eigen::Vector3i& c) const;
 
