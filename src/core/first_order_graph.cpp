@@ -1,0 +1,331 @@
+// The first-order compatibility graph (FOG): the O(N^2) pair test, its bounds, and the graph's assembly.
+#include <immintrin.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <memory>
+
+#include "graph_assembly.hpp"
+#include "mac_registration/core/compatibility_graph.hpp"
+
+namespace mac_registration {
+namespace {
+
+// Largest d^2 whose score still reaches t_cmp; both scores fall monotonically with d.
+double maxResidualSquared(const GraphParams& params) {
+  if (params.score == CompatibilityScore::kGaussian) {
+    return -2.0 * params.gaussian_sigma * params.gaussian_sigma * std::log(params.t_cmp);
+  }
+  return (1.0 - params.t_cmp) * params.quadratic_threshold * params.quadratic_threshold;
+}
+
+float scoreFromResidualSquared(float d2, const GraphParams& params) {
+  if (params.score == CompatibilityScore::kGaussian) {
+    return std::exp(-d2 / static_cast<float>(2.0 * params.gaussian_sigma * params.gaussian_sigma));
+  }
+  return 1.0f - d2 / static_cast<float>(params.quadratic_threshold * params.quadratic_threshold);
+}
+
+// The O(N^2) loop of the graph: branch-free so that it vectorizes, with an AVX2 clone picked at run time
+// where the CPU has it (the same IEEE operations, no FMA, so the same edges either way).
+__attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(const float* sx, const float* sy,
+                                                                            const float* sz, const float* tx,
+                                                                            const float* ty, const float* tz,
+                                                                            int i, int begin, int end,
+                                                                            float* out) {
+  const float six = sx[i], siy = sy[i], siz = sz[i], tix = tx[i], tiy = ty[i], tiz = tz[i];
+  for (int j = begin; j < end; ++j) {
+    const float ds = std::sqrt((six - sx[j]) * (six - sx[j]) + (siy - sy[j]) * (siy - sy[j]) +
+                               (siz - sz[j]) * (siz - sz[j]));
+    const float dt = std::sqrt((tix - tx[j]) * (tix - tx[j]) + (tiy - ty[j]) * (tiy - ty[j]) +
+                               (tiz - tz[j]) * (tiz - tz[j]));
+    out[j - begin] = (ds - dt) * (ds - dt);
+  }
+}
+
+// The pairs (i, j > i) of one row that pass the test d^2 <= max_d2, compacted: candidates[c] = j and
+// candidate_d2[c] = d^2 for the found ones, ascending in j; returns how many. `d2` is scratch of n floats.
+// Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
+int compatibleInRowPortable(const float* sx, const float* sy, const float* sz, const float* tx,
+                            const float* ty, const float* tz, int i, int n, float max_d2, float* d2,
+                            int* candidates, float* candidate_d2) {
+  pairResidualsSquared(sx, sy, sz, tx, ty, tz, i, i + 1, n, d2);
+  int found = 0;
+  for (int j = i + 1; j < n; ++j) {
+    candidates[found] = j;
+    candidate_d2[found] = d2[j - i - 1];
+    found += d2[j - i - 1] <= max_d2;
+  }
+  return found;
+}
+
+// |p_i - p_j| for the valid ones of the sixteen points from j, as pairResidualsSquared computes it.
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) inline __m512 distances16(
+    const float* x, const float* y, const float* z, int j, __mmask16 valid, __m512 xi, __m512 yi, __m512 zi) {
+  const __m512 dx = _mm512_sub_ps(xi, _mm512_maskz_loadu_ps(valid, x + j));
+  const __m512 dy = _mm512_sub_ps(yi, _mm512_maskz_loadu_ps(valid, y + j));
+  const __m512 dz = _mm512_sub_ps(zi, _mm512_maskz_loadu_ps(valid, z + j));
+  return _mm512_maskz_sqrt_ps(
+      valid,
+      _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz)));
+}
+
+// The same with AVX-512: sixteen pairs at a time, the test's mask compressing the passing ones straight
+// into place. The same IEEE operations in the same order as pairResidualsSquared, so the same pairs and d^2
+// bit for bit: AVX-512 has FMA, and contracting a multiply and an add into one would round differently.
+__attribute__((target("avx512f,popcnt"), optimize("fp-contract=off"))) int compatibleInRowAvx512(
+    const float* sx, const float* sy, const float* sz, const float* tx, const float* ty, const float* tz,
+    int i, int n, float max_d2, float*, int* candidates, float* candidate_d2) {
+  const __m512 six = _mm512_set1_ps(sx[i]), siy = _mm512_set1_ps(sy[i]), siz = _mm512_set1_ps(sz[i]);
+  const __m512 tix = _mm512_set1_ps(tx[i]), tiy = _mm512_set1_ps(ty[i]), tiz = _mm512_set1_ps(tz[i]);
+  const __m512 bound = _mm512_set1_ps(max_d2);
+  const __m512i step = _mm512_set1_epi32(16);
+  __m512i index = _mm512_add_epi32(_mm512_set1_epi32(i + 1),
+                                   _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+  int found = 0;
+  for (int j = i + 1; j < n; j += 16) {
+    const __mmask16 valid = n - j >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - j)) - 1u);
+    const __m512 difference = _mm512_sub_ps(distances16(sx, sy, sz, j, valid, six, siy, siz),
+                                            distances16(tx, ty, tz, j, valid, tix, tiy, tiz));
+    const __m512 d2 = _mm512_mul_ps(difference, difference);
+    const __mmask16 pass = _mm512_mask_cmp_ps_mask(valid, d2, bound, _CMP_LE_OQ);
+    _mm512_mask_compressstoreu_epi32(candidates + found, pass, index);
+    _mm512_mask_compressstoreu_ps(candidate_d2 + found, pass, d2);
+    found += __builtin_popcount(pass);
+    index = _mm512_add_epi32(index, step);
+  }
+  return found;
+}
+
+using CompatibleInRow = int (*)(const float*, const float*, const float*, const float*, const float*,
+                                const float*, int, int, float, float*, int*, float*);
+
+CompatibleInRow compatibleInRowForThisCpu() {
+  return __builtin_cpu_supports("avx512f") ? compatibleInRowAvx512 : compatibleInRowPortable;
+}
+
+// Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the
+// correspondences) so that float keeps millimetres even for map-sized coordinates; the loops over it
+// vectorize.
+struct PointsSoA {
+  std::vector<float> sx, sy, sz, tx, ty, tz;
+
+  PointsSoA(const CorrespondenceSet& c, const std::vector<int>& nodes) {
+    const Eigen::Vector3d s0 = c.source_points.rowwise().mean();
+    const Eigen::Vector3d t0 = c.target_points.rowwise().mean();
+    resize(nodes.size());
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      const Eigen::Vector3d s = c.source_points.col(nodes[k]) - s0;
+      const Eigen::Vector3d t = c.target_points.col(nodes[k]) - t0;
+      sx[k] = float(s.x()), sy[k] = float(s.y()), sz[k] = float(s.z());
+      tx[k] = float(t.x()), ty[k] = float(t.y()), tz[k] = float(t.z());
+    }
+  }
+
+  // The points `subset` of `from`, the same floats: a pair tests the same in both.
+  PointsSoA(const PointsSoA& from, const std::vector<int>& subset) {
+    resize(subset.size());
+    for (std::size_t k = 0; k < subset.size(); ++k) {
+      const int i = subset[k];
+      sx[k] = from.sx[i], sy[k] = from.sy[i], sz[k] = from.sz[i];
+      tx[k] = from.tx[i], ty[k] = from.ty[i], tz[k] = from.tz[i];
+    }
+  }
+
+  int size() const { return static_cast<int>(sx.size()); }
+
+  // The pairs (i, j > i) with d^2 <= max_d2: their j ascending in candidates, their d^2 in candidate_d2;
+  // returns how many. `scratch` holds size() floats.
+  int compatibleInRow(int i, float max_d2, float* scratch, int* candidates, float* candidate_d2) const {
+    static const CompatibleInRow kernel = compatibleInRowForThisCpu();
+    return kernel(sx.data(), sy.data(), sz.data(), tx.data(), ty.data(), tz.data(), i, size(), max_d2,
+                  scratch, candidates, candidate_d2);
+  }
+
+ private:
+  void resize(std::size_t n) {
+    for (auto* v : {&sx, &sy, &sz, &tx, &ty, &tz}) v->resize(n);
+  }
+};
+
+// Rows written back to back, each whole in one chunk; chunks are allocated uninitialised and never moved,
+// so that growing neither zero-fills nor copies what is written.
+class RowChunks {
+ public:
+  explicit RowChunks(std::size_t chunk_entries) : chunk_entries_(chunk_entries) {}
+
+  // Room for `entries` more at to() and weight(), in the current chunk or a new one.
+  void reserve(std::size_t entries) {
+    if (!to_.empty() && used_ + entries <= capacity_) return;
+    capacity_ = std::max(chunk_entries_, entries);
+    to_.emplace_back(new int[capacity_]);
+    weight_.emplace_back(new float[capacity_]);
+    used_ = 0;
+  }
+  int* to() { return to_.back().get() + used_; }
+  float* weight() { return weight_.back().get() + used_; }
+  void commit(std::size_t entries) { used_ += entries; }
+
+ private:
+  std::size_t chunk_entries_, capacity_ = 0, used_ = 0;
+  std::vector<std::unique_ptr<int[]>> to_;
+  std::vector<std::unique_ptr<float[]>> weight_;
+};
+
+// One pass over every pair of a point set. Each thread appends the rows it tests to chunks of its own, so
+// that no row needs an allocation of its own.
+struct PairPass {
+  std::vector<RowChunks> chunks;   // per thread: the rows it kept
+  std::vector<int*> row_to;        // row i's j, ascending, in its thread's chunks
+  std::vector<float*> row_weight;  // their weights
+  std::vector<int> row_count;      // entries of row i kept (all of them, or 0 past max_edges)
+  std::vector<int> degree;         // compatible pairs of each point, all of them counted
+  std::size_t compatible = 0;      // compatible pairs in all
+  bool within_max_edges = true;    // compatible <= max_edges, and so the rows are complete
+};
+
+// Tests every pair, counting each point's compatible pairs, and keeps the edges while there are at most
+// max_edges of them (memory stays bounded past that; the count goes on, so that a reduction can rank
+// nodes by their true degree). Counts and the outcome are the same whatever the thread count. A raised
+// stop leaves everything incomplete, but the rows kept and the degrees still agree.
+PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std::size_t max_edges,
+                         int num_threads, const StopFlag* stop) {
+  const int n = points.size();
+  const float max_d2 = static_cast<float>(maxResidualSquared(params));
+  // 64 kB chunks (of at least a row): below glibc's mmap threshold, so that they come from the heap and,
+  // freed, stay there for the next graph instead of being mapped afresh, page by page, each time.
+  constexpr std::size_t kChunkEntries = std::size_t(1) << 14;
+  PairPass pass;
+  for (int t = 0; t < num_threads; ++t) pass.chunks.emplace_back(std::max(kChunkEntries, std::size_t(n)));
+  pass.row_to.assign(n, nullptr);
+  pass.row_weight.assign(n, nullptr);
+  pass.row_count.assign(n, 0);
+  pass.degree.assign(n, 0);
+  std::atomic<std::size_t> total{0};
+  std::atomic<bool> overflow{false};
+#pragma omp parallel num_threads(num_threads)
+  {
+    RowChunks& chunks = pass.chunks[omp_get_thread_num()];
+    std::vector<float> d2(n);
+    std::vector<int> degree(n, 0);  // this thread's counts, summed below: integers, so in any order
+#pragma omp for schedule(dynamic, 16)
+    for (int i = 0; i < n; ++i) {
+      if (stopRequested(stop)) continue;
+      // The kernel writes the found pairs straight into place, their d^2 where their weights go.
+      chunks.reserve(static_cast<std::size_t>(n - i - 1));
+      int* const to = chunks.to();
+      float* const weight = chunks.weight();
+      const int found = points.compatibleInRow(i, max_d2, d2.data(), to, weight);
+      degree[i] += found;
+      for (int c = 0; c < found; ++c) ++degree[to[c]];
+      if (total.fetch_add(found) + found > max_edges) overflow = true;
+      if (overflow.load(std::memory_order_relaxed)) continue;
+      for (int c = 0; c < found; ++c) weight[c] = scoreFromResidualSquared(weight[c], params);
+      pass.row_to[i] = to;
+      pass.row_weight[i] = weight;
+      pass.row_count[i] = found;
+      chunks.commit(static_cast<std::size_t>(found));
+    }
+#pragma omp critical
+    for (int i = 0; i < n; ++i) pass.degree[i] += degree[i];
+  }
+  pass.compatible = total;
+  pass.within_max_edges = !overflow;
+  if (overflow) {
+    std::vector<RowChunks>().swap(pass.chunks);
+    pass.row_to.assign(n, nullptr);
+    pass.row_weight.assign(n, nullptr);
+    pass.row_count.assign(n, 0);
+  }
+  return pass;
+}
+
+// The rows of `pass`, whose point k is node node_of_point[k] of a graph of num_nodes (ascending, so the
+// rows stay ascending); relabels the pass's entries in place. Where the pass kept its rows, its degrees are
+// their counts at both ends.
+NodeRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int num_nodes, int num_threads) {
+  NodeRows rows;
+  rows.to.assign(num_nodes, nullptr);
+  rows.weight.assign(num_nodes, nullptr);
+  rows.count.assign(num_nodes, 0);
+  rows.degree.assign(num_nodes, 0);
+  const int points = static_cast<int>(node_of_point.size());
+  bool identity = true;
+  for (int k = 0; k < points && identity; ++k) identity = node_of_point[k] == k;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
+  for (int k = 0; k < points; ++k) {
+    const int node = node_of_point[k];
+    int* to = pass.row_to[k];
+    if (!identity) {
+      for (int c = 0; c < pass.row_count[k]; ++c) to[c] = node_of_point[to[c]];
+    }
+    rows.to[node] = to;
+    rows.weight[node] = pass.row_weight[k];
+    rows.count[node] = pass.row_count[k];
+    rows.degree[node] = pass.within_max_edges ? pass.degree[k] : 0;
+  }
+  return rows;
+}
+
+// `count` indices spread evenly over [0, n), ascending; all of them when count >= n.
+std::vector<int> evenlySpaced(int n, std::size_t count) {
+  const auto m = static_cast<long long>(std::min<std::size_t>(count, static_cast<std::size_t>(n)));
+  std::vector<int> picked(m);
+  for (long long k = 0; k < m; ++k) picked[k] = static_cast<int>(k * n / m);
+  return picked;
+}
+
+std::vector<int> indicesOf(const std::vector<char>& mask) {
+  std::vector<int> indices;
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    if (mask[i]) indices.push_back(static_cast<int>(i));
+  }
+  return indices;
+}
+
+}  // namespace
+
+FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
+                                     int num_threads, const StopFlag* stop) {
+  const int n = static_cast<int>(correspondences.size());
+  FirstOrderGraph result;
+  if (n == 0) {
+    result.graph = graphFromUpperRows(0, {});
+    return result;
+  }
+  // The pass is O(N^2): above max_correspondences it runs on an evenly spaced subset, which keeps the
+  // inlier ratio of the whole set and bounds the time whatever N.
+  const std::size_t cap = params.max_correspondences > 0 ? params.max_correspondences : std::size_t(n);
+  const std::vector<int> nodes = evenlySpaced(n, cap);
+  result.sampled = nodes.size() < std::size_t(n);
+  result.sampled_to = nodes.size();
+  const PointsSoA points(correspondences, nodes);
+  PairPass pass = compatiblePairs(points, params, params.max_edges, num_threads, stop);
+  result.compatible_pairs = pass.compatible;
+  if (stopRequested(stop)) {
+    result.cancelled = true;
+    result.graph = graphFromUpperRows(n, std::vector<std::vector<UpperEdge>>(n));
+    return result;
+  }
+  if (pass.within_max_edges) {
+    result.graph = graphFromNodeRows(nodeRowsOf(pass, nodes, n, num_threads), num_threads);
+    return result;
+  }
+  // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
+  // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
+  const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
+  const std::vector<int> kept =
+      indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
+  std::vector<int> kept_nodes(kept.size());
+  for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
+  PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
+  result.reduced = true;
+  result.reduced_to = kept.size();
+  result.cancelled = stopRequested(stop);
+  result.graph = graphFromNodeRows(nodeRowsOf(dense, kept_nodes, n, num_threads), num_threads);
+  return result;
+}
+
+}  // namespace mac_registration
