@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "benchmark_runner.hpp"
+#include "core_cases.hpp"
 #include "mac_registration/config/preset_file.hpp"
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/pose_error.hpp"
@@ -97,23 +98,6 @@ void loadConfig(Options& o, const std::string& path) {
   loadPresetFile(o.config, path, [&](const std::string& key, const std::string& value) {
     if (key.rfind("benchmark.", 0) == 0) setBenchmarkParam(o.dataset, key, value);
   });
-}
-
-// What one case measured: medians over the repeats, accuracy of each repeat.
-struct CaseResult {
-  double graph = 0, second_order = 0, cliques = 0, selection = 0, hypotheses = 0, evaluation = 0,
-         refinement = 0, total = 0, verification = 0;
-  double peak_mb = 0;
-  double clique_count = 0, selected = 0, inliers = 0, edges = 0;
-  double max_re = 0, max_te = 0;
-  int successes = 0, incomplete = 0, repeats = 0;
-};
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
 template <typename Run>
@@ -180,45 +164,6 @@ CaseResult inChild(Work work) {
   return r;
 }
 
-// FGR on the same correspondence sets as a case's repeats (--baseline fgr): medians over the repeats.
-struct PeerCase {
-  bool ran = false;
-  double ms = 0.0, median_re = 0.0, median_te = 0.0, peak_mb = 0.0;
-  int recalled = 0, repeats = 0;
-};
-
-StageTimes stageTimesOf(const CaseResult& r) {
-  StageTimes t;
-  t.graph_ms = r.graph;
-  t.second_order_ms = r.second_order;
-  t.clique_search_ms = r.cliques;
-  t.selection_ms = r.selection;
-  t.hypotheses_ms = r.hypotheses;
-  t.evaluation_ms = r.evaluation;
-  t.refinement_ms = r.refinement;
-  t.verification_ms = r.verification;
-  t.total_ms = r.total;
-  return t;
-}
-
-// The core's stages (graph .. verify, other) and their shares of the median total; the front end's
-// entries of stageShares are zero here.
-std::vector<StageShare> coreShares(const CaseResult& r) {
-  std::vector<StageShare> shares = stageShares({}, stageTimesOf(r), r.total);
-  shares.erase(shares.begin(), shares.begin() + 5);
-  return shares;
-}
-
-std::string kHeader() {
-  std::string header =
-      "case,n,inlier_ratio,noise_m,graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,"
-      "evaluation_ms,refinement_ms,total_ms,peak_mb,graph_edges,cliques,selected_cliques,inliers,successes,"
-      "repeats,incomplete_searches,max_re_deg,max_te_m,verification_ms";
-  for (const StageShare& stage : coreShares(CaseResult{}))
-    header += std::string(",") + stage.name + "_share_pct";
-  return header + ",fgr_ms,fgr_recalled,fgr_median_re_deg,fgr_median_te_m,fgr_peak_mb";
-}
-
 // Writes each repeat's correspondence set for FGR, runs it once on all of them and judges each
 // transform against its truth.
 PeerCase runFgr(const Options& o, const std::vector<CorrespondenceSet>& sets,
@@ -259,69 +204,6 @@ PeerCase runFgr(const Options& o, const std::vector<CorrespondenceSet>& sets,
   peer.median_re = median(re);
   peer.median_te = median(te);
   return peer;
-}
-
-void printRow(std::ostream& out, const std::string& name, int n, double ratio, double noise,
-              const CaseResult& r, const PeerCase& fgr) {
-  out << std::fixed << std::setprecision(2) << std::setw(14) << name << std::setw(7) << n << std::setw(6)
-      << ratio * 100 << "%" << std::setw(8) << r.graph << std::setw(8) << r.second_order << std::setw(9)
-      << r.cliques << std::setw(8) << r.selection << std::setw(7) << r.hypotheses << std::setw(8)
-      << r.evaluation << std::setw(7) << r.refinement << std::setw(9) << r.total << std::setw(8)
-      << std::setprecision(1) << r.peak_mb << std::setw(10) << std::setprecision(0) << r.clique_count
-      << std::setw(7) << r.inliers << std::setw(5) << r.successes << "/" << r.repeats << std::setw(8)
-      << std::setprecision(2) << r.max_re << std::setw(8) << std::setprecision(3) << r.max_te;
-  if (fgr.ran)
-    out << std::setprecision(2) << std::setw(9) << fgr.ms << std::setw(4) << fgr.recalled << "/"
-        << fgr.repeats << std::setw(8) << fgr.median_re << std::setw(8) << std::setprecision(3)
-        << fgr.median_te;
-  out << "\n";
-  (void)noise;
-}
-
-void printTableHeader(std::ostream& out, bool fgr) {
-  out << std::setw(14) << "case" << std::setw(7) << "N" << std::setw(7) << "inl" << std::setw(8) << "graph"
-      << std::setw(8) << "SOG" << std::setw(9) << "cliques" << std::setw(8) << "select" << std::setw(7)
-      << "hyp" << std::setw(8) << "eval" << std::setw(7) << "refine" << std::setw(9) << "total"
-      << std::setw(8) << "peakMB" << std::setw(10) << "#cliques" << std::setw(7) << "#inl" << std::setw(7)
-      << "ok" << std::setw(8) << "maxRE" << std::setw(8) << "maxTE";
-  if (fgr)
-    out << std::setw(9) << "FGR ms" << std::setw(6) << "FGRok" << std::setw(8) << "medRE" << std::setw(8)
-        << "medTE";
-  out << "\n"
-      << std::setw(14) << "" << std::setw(7) << "" << std::setw(7) << ""
-      << "  (median ms per stage)" << std::setw(52) << "(median)" << std::setw(24) << "[deg]" << std::setw(8)
-      << "[m]" << (fgr ? "   (FGR: median ms, recalled, median RE [deg] / TE [m])" : "") << "\n";
-}
-
-// The median time of each core stage as a share of the median total, one line per case.
-void printShares(std::ostream& out, const std::vector<std::pair<std::string, CaseResult>>& cases) {
-  out << "\nshare of the median total per stage [%] (other: the untimed rest; medians of stages need not add "
-         "up to the median total)\n"
-      << std::setw(22) << "case";
-  for (const StageShare& stage : coreShares(CaseResult{})) out << std::setw(8) << stage.name;
-  out << std::setw(9) << "total ms"
-      << "\n";
-  out << std::fixed << std::setprecision(1);
-  for (const auto& [name, r] : cases) {
-    out << std::setw(22) << name;
-    for (const StageShare& stage : coreShares(r)) out << std::setw(8) << stage.percent;
-    out << std::setw(9) << std::setprecision(2) << r.total << std::setprecision(1) << "\n";
-  }
-}
-
-void writeCsvRow(std::ostream& csv, const std::string& name, int n, double ratio, double noise,
-                 const CaseResult& r, const PeerCase& fgr) {
-  csv << name << "," << n << "," << ratio << "," << noise << "," << r.graph << "," << r.second_order << ","
-      << r.cliques << "," << r.selection << "," << r.hypotheses << "," << r.evaluation << "," << r.refinement
-      << "," << r.total << "," << r.peak_mb << "," << r.edges << "," << r.clique_count << "," << r.selected
-      << "," << r.inliers << "," << r.successes << "," << r.repeats << "," << r.incomplete << "," << r.max_re
-      << "," << r.max_te << "," << r.verification;
-  for (const StageShare& stage : coreShares(r)) csv << "," << stage.percent;
-  if (fgr.ran)
-    csv << "," << fgr.ms << "," << fgr.recalled << "," << fgr.median_re << "," << fgr.median_te << ","
-        << fgr.peak_mb << "\n";
-  else
-    csv << ",,,,,\n";
 }
 
 std::vector<std::string> split(const std::string& text) {
@@ -440,7 +322,7 @@ int runSynthetic(Options o, bool params_given) {
   std::ofstream csv;
   if (!o.csv.empty()) {
     csv = openCsv(o.csv);
-    csv << kHeader() << "\n";
+    csv << coreCsvHeader() << "\n";
   }
   std::cout << "synthetic: bunny mesh scaled to 3 m, noise " << o.noise << " m, " << o.repeats
             << " repeats per case (seeds 1..), gaussian_sigma " << o.config.mac.graph.gaussian_sigma
@@ -469,7 +351,7 @@ int runSynthetic(Options o, bool params_given) {
         }
         fgr = runFgr(o, sets, truths);
       }
-      printRow(std::cout, "synthetic", n, ratio, o.noise, r, fgr);
+      printRow(std::cout, "synthetic", n, ratio, r, fgr);
       if (csv.is_open()) writeCsvRow(csv, "synthetic", n, ratio, o.noise, r, fgr);
       std::ostringstream name;
       name << "N " << n << ", " << ratio * 100 << " %";
@@ -499,11 +381,11 @@ int runCorrespondences(const Options& o) {
             << " repeats\n";
   if (o.fgr) printFgrSettings(std::cout, o);
   printTableHeader(std::cout, o.fgr);
-  printRow(std::cout, "file", int(c.size()), 0.0, 0.0, r, fgr);
+  printRow(std::cout, "file", int(c.size()), 0.0, r, fgr);
   printShares(std::cout, {{"file", r}});
   if (!o.csv.empty()) {
     std::ofstream csv = openCsv(o.csv);
-    csv << kHeader() << "\n";
+    csv << coreCsvHeader() << "\n";
     writeCsvRow(csv, o.positional[0], int(c.size()), 0.0, 0.0, r, fgr);
   }
   return r.successes == r.repeats ? 0 : 1;
