@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "graph_assembly.hpp"
 #include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/graph_bounds.hpp"
 
 namespace mac_registration {
 namespace {
@@ -269,6 +271,79 @@ NodeRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int n
   return rows;
 }
 
+// secondOrderWork of the graph the pass's rows make (each upper pair (i, j) costs the degree of j), from
+// the degrees alone. Integers below 2^53: exact in any order.
+double secondOrderWorkOfPass(const PairPass& pass) {
+  double work = 0.0;
+  for (std::size_t j = 0; j < pass.degree.size(); ++j)
+    work += double(pass.degree[j] - pass.row_count[j]) * pass.degree[j];
+  return work;
+}
+
+// secondOrderWorkOfNodes of that graph, read from the rows; +infinity once past `limit`. Node j's share is
+// its kept degree times its kept lower neighbours. Rows are read in ascending order, so when row j comes,
+// every row that names j has been read and j's share is known: the sum can stop as soon as it passes the
+// limit, which every round but the last does early. Integers: exact.
+double secondOrderWorkOfKeptRows(const PairPass& pass, const std::vector<char>& keep, double limit) {
+  const int n = static_cast<int>(keep.size());
+  std::vector<std::int64_t> lower(n, 0);
+  std::int64_t work = 0;
+  for (int j = 0; j < n; ++j) {
+    if (!keep[j]) continue;
+    std::int64_t upper = 0;
+    const int* const to = pass.row_to[j];
+    for (int c = 0; c < pass.row_count[j]; ++c) {  // branch-free: about half the entries are kept
+      const std::int64_t kept = keep[to[c]] != 0;
+      upper += kept;
+      lower[to[c]] += kept;
+    }
+    work += (lower[j] + upper) * lower[j];
+    if (double(work) > limit) return std::numeric_limits<double>::infinity();
+  }
+  return double(work);
+}
+
+// Leaves in the pass's rows only the pairs among kept points, in place, and recounts the degrees: the
+// rows keepNodes would leave of the graph.
+void keepRowsOf(PairPass& pass, const std::vector<char>& keep) {
+  const int n = static_cast<int>(keep.size());
+  std::fill(pass.degree.begin(), pass.degree.end(), 0);
+  for (int i = 0; i < n; ++i) {
+    int kept = 0;
+    if (keep[i]) {
+      for (int c = 0; c < pass.row_count[i]; ++c) {
+        const int j = pass.row_to[i][c];
+        if (!keep[j]) continue;
+        pass.row_to[i][kept] = j;
+        pass.row_weight[i][kept] = pass.row_weight[i][c];
+        ++kept;
+        ++pass.degree[j];
+      }
+    }
+    pass.row_count[i] = kept;
+    pass.degree[i] += kept;
+  }
+}
+
+// What boundSecondOrderWork would do to the graph of the pass, done to its rows before any list is built:
+// a dense consensus makes a first-order graph of millions of edges that the budget then cuts to a few
+// hundred nodes, and building those lists first cost more than the rest of the registration.
+void boundPassSecondOrderWork(PairPass& pass, double budget, const StopFlag* stop, FirstOrderGraph& result) {
+  if (budget <= 0.0 || !pass.within_max_edges || secondOrderWorkOfPass(pass) <= budget) return;
+  const std::vector<double> degree(pass.degree.begin(), pass.degree.end());
+  std::size_t edges = 0;
+  for (const int count : pass.row_count) edges += static_cast<std::size_t>(count);
+  const std::vector<char> keep = nodesWithinSecondOrderBudget(
+      degree, budget,
+      [&](const std::vector<char>& kept) { return secondOrderWorkOfKeptRows(pass, kept, budget); }, stop,
+      result.second_order_kept_nodes);
+  keepRowsOf(pass, keep);
+  std::size_t kept_edges = 0;
+  for (const int count : pass.row_count) kept_edges += static_cast<std::size_t>(count);
+  result.second_order_bounded = true;
+  result.second_order_removed_edges = edges - kept_edges;
+}
+
 // `count` indices spread evenly over [0, n), ascending; all of them when count >= n.
 std::vector<int> evenlySpaced(int n, std::size_t count) {
   const auto m = static_cast<long long>(std::min<std::size_t>(count, static_cast<std::size_t>(n)));
@@ -288,7 +363,7 @@ std::vector<int> indicesOf(const std::vector<char>& mask) {
 }  // namespace
 
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads, const StopFlag* stop) {
+                                     int num_threads, const StopFlag* stop, double second_order_budget) {
   const int n = static_cast<int>(correspondences.size());
   FirstOrderGraph result;
   if (n == 0) {
@@ -310,6 +385,7 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
     return result;
   }
   if (pass.within_max_edges) {
+    boundPassSecondOrderWork(pass, second_order_budget, stop, result);
     result.graph = graphFromNodeRows(nodeRowsOf(pass, nodes, n, num_threads), num_threads);
     return result;
   }
@@ -321,6 +397,7 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   std::vector<int> kept_nodes(kept.size());
   for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
   PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
+  boundPassSecondOrderWork(dense, second_order_budget, stop, result);
   result.reduced = true;
   result.reduced_to = kept.size();
   result.cancelled = stopRequested(stop);

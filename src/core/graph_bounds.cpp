@@ -5,6 +5,22 @@
 
 namespace mac_registration {
 
+std::vector<char> nodesWithinSecondOrderBudget(
+    const std::vector<double>& degree, double budget,
+    const std::function<double(const std::vector<char>&)>& work_of_kept, const StopFlag* stop,
+    std::size_t& kept_nodes) {
+  std::size_t nodes = 0;
+  for (const double d : degree) nodes += d > 0.0;
+  // Each round is judged by the work of the graph it would keep; only the last one is built.
+  std::vector<char> keep;
+  do {
+    nodes = nodes * 7 / 10;
+    keep = strongestNodes(degree, nodes);
+  } while (nodes > 3 && !stopRequested(stop) && work_of_kept(keep) > budget);
+  kept_nodes = nodes;
+  return keep;
+}
+
 BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int num_threads,
                                   const StopFlag* stop) {
   BoundedGraph out;
@@ -13,21 +29,13 @@ BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int n
     return out;
   }
   std::vector<double> degree(graph.num_nodes);
-  std::size_t nodes = 0;
-  for (int i = 0; i < graph.num_nodes; ++i) {
-    degree[i] = graph.degree(i);
-    nodes += graph.degree(i) > 0;
-  }
-  // Each round is judged by the work of the graph it would keep; only the last one is built.
-  std::vector<char> keep;
-  do {
-    nodes = nodes * 7 / 10;
-    keep = strongestNodes(degree, nodes);
-  } while (nodes > 3 && !stopRequested(stop) &&
-           secondOrderWorkOfNodes(graph, keep, budget, num_threads) > budget);
+  for (int i = 0; i < graph.num_nodes; ++i) degree[i] = graph.degree(i);
+  const std::vector<char> keep = nodesWithinSecondOrderBudget(
+      degree, budget,
+      [&](const std::vector<char>& kept) { return secondOrderWorkOfNodes(graph, kept, budget, num_threads); },
+      stop, out.kept_nodes);
   out.graph = keepNodes(graph, keep, num_threads);
   out.reduced = true;
-  out.kept_nodes = nodes;
   out.removed_edges = graph.numEdges() - out.graph.numEdges();
   return out;
 }

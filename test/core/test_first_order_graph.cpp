@@ -10,6 +10,7 @@
 
 #include "graph_test_support.hpp"
 #include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/graph_bounds.hpp"
 
 namespace mac_registration {
 namespace {
@@ -211,6 +212,48 @@ TEST(FirstOrderGraph, BoundedGraphsAreThePairByPairGraphOnTheirNodes) {
     EXPECT_EQ(reduced.graph.offsets, expected_reduced.offsets) << threads << " threads";
     EXPECT_EQ(reduced.graph.neighbours, expected_reduced.neighbours) << threads << " threads";
     EXPECT_EQ(reduced.graph.weights, expected_reduced.weights) << threads << " threads";
+  }
+}
+
+// The second-order budget applied to the pass's rows gives the graph boundSecondOrderWork makes of the
+// whole first-order graph, bit for bit, with the same count of kept nodes and removed edges: on the whole
+// set, on an evenly spaced sample, and after the max_edges reduction; and nothing changes within budget.
+TEST(FirstOrderGraph, TheSecondOrderBudgetOnTheRowsIsBoundSecondOrderWork) {
+  struct Case {
+    int size, inliers;
+    std::size_t max_correspondences, max_edges;
+  };
+  for (const Case& test_case :
+       {Case{900, 450, 50000, 4000000}, Case{1200, 500, 1000, 4000000}, Case{900, 450, 50000, 60000}}) {
+    GraphParams params;
+    params.max_correspondences = test_case.max_correspondences;
+    params.max_edges = test_case.max_edges;
+    const CorrespondenceSet c = rigidProblem(test_case.size, test_case.inliers, 13);
+    const FirstOrderGraph whole = buildFirstOrderGraph(c, params, 1);
+    ASSERT_EQ(whole.sampled, test_case.max_correspondences < std::size_t(test_case.size));
+    ASSERT_EQ(whole.reduced, test_case.max_edges < 4000000u);
+    const double work = secondOrderWork(whole.graph);
+    const double budget = work / 20.0;
+    const BoundedGraph expected = boundSecondOrderWork(whole.graph, budget);
+    ASSERT_TRUE(expected.reduced);
+    ASSERT_GT(expected.graph.numEdges(), 1000u);
+    for (const int threads : {1, 2, 3}) {
+      const FirstOrderGraph bounded = buildFirstOrderGraph(c, params, threads, nullptr, budget);
+      ASSERT_TRUE(bounded.second_order_bounded) << threads << " threads";
+      EXPECT_EQ(bounded.sampled, whole.sampled);
+      EXPECT_EQ(bounded.reduced, whole.reduced);
+      EXPECT_EQ(bounded.second_order_kept_nodes, expected.kept_nodes) << threads << " threads";
+      EXPECT_EQ(bounded.second_order_removed_edges, expected.removed_edges) << threads << " threads";
+      EXPECT_EQ(bounded.graph.offsets, expected.graph.offsets) << threads << " threads";
+      EXPECT_EQ(bounded.graph.neighbours, expected.graph.neighbours) << threads << " threads";
+      EXPECT_EQ(bounded.graph.weights, expected.graph.weights) << threads << " threads";
+      EXPECT_LE(secondOrderWork(bounded.graph), budget);
+
+      const FirstOrderGraph within = buildFirstOrderGraph(c, params, threads, nullptr, work);
+      EXPECT_FALSE(within.second_order_bounded);
+      EXPECT_EQ(within.graph.neighbours, whole.graph.neighbours) << threads << " threads";
+      EXPECT_EQ(within.graph.weights, whole.graph.weights) << threads << " threads";
+    }
   }
 }
 

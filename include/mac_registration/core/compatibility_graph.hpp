@@ -46,6 +46,11 @@ struct FirstOrderGraph {
   // degree (the true degree, from the counts of the full pass).
   bool reduced = false;
   std::size_t reduced_to = 0;
+  // The second_order_budget of buildFirstOrderGraph acted: the graph holds only the edges among the
+  // second_order_kept_nodes correspondences boundSecondOrderWork would have kept.
+  bool second_order_bounded = false;
+  std::size_t second_order_kept_nodes = 0;
+  std::size_t second_order_removed_edges = 0;
   // The stop flag ended the pass: the graph is incomplete and not to be used.
   bool cancelled = false;
 };
@@ -54,8 +59,12 @@ struct FirstOrderGraph {
 // the score. Both scores are monotone in d, so each pair is tested against a precomputed bound on d^2.
 // O(min(N, max_correspondences)^2) pair tests, then O(sqrt(max_edges)^2) more if the edges overflow; memory
 // O(N + max_edges). The same graph whatever num_threads. A raised `stop` ends the pass within a row of pairs.
+// second_order_budget [multiply-adds], 0 = none: the graph boundSecondOrderWork(graph, budget) would make
+// of the first-order graph, bit for bit, chosen from the pass's rows before any list is built (a dense
+// consensus is millions of edges, most of which that bound would drop), with second_order_bounded set.
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads, const StopFlag* stop = nullptr);
+                                     int num_threads, const StopFlag* stop = nullptr,
+                                     double second_order_budget = 0.0);
 
 // Second-order weights (paper Eq. 4): w_ij = S_ij * sum_k S_ik S_jk over common neighbours k, on the
 // sparse lists. Edges in no triangle get weight 0 and are removed. A raised `stop` ends the pass within a

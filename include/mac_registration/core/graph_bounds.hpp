@@ -6,6 +6,8 @@
 // graph.max_edges in buildFirstOrderGraph.) Each returns what it did, for the result's warnings.
 
 #include <cstddef>
+#include <functional>
+#include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/stop_flag.hpp"
@@ -24,6 +26,15 @@ struct BoundedGraph {
 // round until it fits.
 BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int num_threads = 1,
                                   const StopFlag* stop = nullptr);
+
+// The nodes boundSecondOrderWork keeps, for a graph it would reduce: by `degree`, 30 % fewer a round,
+// until `work_of_kept` (the second-order work of the graph among the kept nodes, or more once past the
+// budget) is within the budget, 3 nodes are left, or `stop` is raised. `kept_nodes` receives how many.
+// Shared with the first-order builder, which applies it to its rows before building any list.
+std::vector<char> nodesWithinSecondOrderBudget(
+    const std::vector<double>& degree, double budget,
+    const std::function<double(const std::vector<char>&)>& work_of_kept, const StopFlag* stop,
+    std::size_t& kept_nodes);
 
 // The second-order graph of `first_order` after pruneDenseGraph's cut, and whether its weights are the
 // counted estimate.
