@@ -244,7 +244,7 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
                                          const StopFlag* stop) {
   const int n = fog.num_nodes;
   // Common-neighbour sum of each upper edge, at its position in the first-order lists (0 elsewhere).
-  std::vector<float> common(fog.neighbours.size(), 0.0f);
+  EdgeSums common(fog.neighbours.size(), 0.0f);
 #pragma omp parallel num_threads(num_threads)
   {
     // Row i's weights scattered densely, so that a common neighbour k of (i, j) is found by one load while
@@ -265,7 +265,7 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
   return triangleEdgesFromSums(fog, common, 0.0f, num_threads);
 }
 
-CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const std::vector<float>& common,
+CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const EdgeSums& common,
                                          float min_weight, int num_threads) {
   // The kept upper entries of each first-order row are its node's row in the graph: counted first (at
   // both ends, for the offsets), then compacted straight into the tails of the lists and mirrored from
@@ -318,7 +318,7 @@ CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const st
   return graph;
 }
 
-float otsuThresholdOfSums(const CompatibilityGraph& fog, const std::vector<float>& common, std::size_t& edges,
+float otsuThresholdOfSums(const CompatibilityGraph& fog, const EdgeSums& common, std::size_t& edges,
                           int num_threads) {
   // otsuThreshold over the edges with a positive sum, in two parallel passes (extremes, then bins):
   // minima, maxima and integer counts are the same in any order.

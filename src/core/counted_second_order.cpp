@@ -16,7 +16,7 @@ namespace {
 struct NeighbourBits {
   std::vector<int> position;  // of each node among the active ones, -1 for isolated nodes
   std::size_t words = 0;      // 64-bit words per row, a multiple of 8
-  std::vector<std::uint64_t> bits;
+  UninitialisedVector<std::uint64_t> bits;
 
   const std::uint64_t* row(int node) const { return bits.data() + std::size_t(position[node]) * words; }
 };
@@ -31,7 +31,8 @@ std::size_t activeNodes(const CompatibilityGraph& graph) {
 
 std::size_t wordsPerRow(std::size_t active) { return (active + 511) / 512 * 8; }
 
-NeighbourBits neighbourBits(const CompatibilityGraph& graph) {
+// Each row is zeroed and filled by the thread that owns it, so that the pages are first touched there.
+NeighbourBits neighbourBits(const CompatibilityGraph& graph, int num_threads) {
   NeighbourBits out;
   out.position.assign(graph.num_nodes, -1);
   int active = 0;
@@ -39,10 +40,12 @@ NeighbourBits neighbourBits(const CompatibilityGraph& graph) {
     if (graph.degree(i) > 0) out.position[i] = active++;
   }
   out.words = wordsPerRow(std::size_t(active));
-  out.bits.assign(out.words * std::size_t(active), 0);
+  out.bits.resize(out.words * std::size_t(active));
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)
   for (int i = 0; i < graph.num_nodes; ++i) {
     if (out.position[i] < 0) continue;
     std::uint64_t* row = out.bits.data() + std::size_t(out.position[i]) * out.words;
+    std::fill(row, row + out.words, std::uint64_t(0));
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
       const int k = out.position[graph.neighbours[p]];
       row[k >> 6] |= std::uint64_t(1) << (k & 63);
@@ -82,12 +85,15 @@ CommonCount commonCountForThisCpu() {
                                                                                         : commonCountPortable;
 }
 
-// Mean weight of each node's edges (0 for isolated nodes), in double: the same whatever the thread count.
-std::vector<double> meanEdgeWeight(const CompatibilityGraph& graph) {
+// Mean weight of each node's edges (0 for isolated nodes), each summed in double in list order: the same
+// whatever the thread count.
+std::vector<double> meanEdgeWeight(const CompatibilityGraph& graph, int num_threads) {
   std::vector<double> mean(graph.num_nodes, 0.0);
+#pragma omp parallel for schedule(dynamic, 256) num_threads(num_threads)
   for (int i = 0; i < graph.num_nodes; ++i) {
-    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) mean[i] += graph.weights[p];
-    if (graph.degree(i) > 0) mean[i] /= graph.degree(i);
+    double sum = 0.0;
+    for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) sum += graph.weights[p];
+    if (graph.degree(i) > 0) mean[i] = sum / graph.degree(i);
   }
   return mean;
 }
@@ -103,7 +109,7 @@ double countedSecondOrderWork(const CompatibilityGraph& graph) {
   return double(graph.numEdges()) * double(wordsPerRow(activeNodes(graph)));
 }
 
-std::vector<float> countedCommonSums(const CompatibilityGraph& fog, int num_threads, const StopFlag* stop) {
+EdgeSums countedCommonSums(const CompatibilityGraph& fog, int num_threads, const StopFlag* stop) {
   // The bit rows of all the nodes exceed L2 (640 bytes each at N = 5000, 3 MB in all), and a chance
   // graph's rows reach almost every node: rows are taken in chunks of kRowsPerChunk, and each chunk's
   // edges column block by column block, so that the chunk and one block stay cached (160 + 128 KB at
@@ -111,24 +117,28 @@ std::vector<float> countedCommonSums(const CompatibilityGraph& fog, int num_thre
   constexpr int kRowsPerChunk = 256;
   constexpr std::size_t kColumnBlockBytes = std::size_t(128) << 10;
   const int n = fog.num_nodes;
-  const NeighbourBits bits = neighbourBits(fog);
-  const std::vector<double> mean = meanEdgeWeight(fog);
+  const NeighbourBits bits = neighbourBits(fog, num_threads);
+  const std::vector<double> mean = meanEdgeWeight(fog, num_threads);
   static const CommonCount count = commonCountForThisCpu();
   const int columns = static_cast<int>(
       std::max<std::size_t>(64, kColumnBlockBytes / (8 * std::max<std::size_t>(bits.words, 1))));
-  std::vector<float> common(fog.neighbours.size(), 0.0f);
+  EdgeSums common(fog.neighbours.size());  // every entry written below, on the threads
   const int chunks = (n + kRowsPerChunk - 1) / kRowsPerChunk;
 #pragma omp parallel num_threads(num_threads)
   {
     std::int64_t cursor[kRowsPerChunk];
 #pragma omp for schedule(dynamic, 1)
     for (int chunk = 0; chunk < chunks; ++chunk) {
-      if (stopRequested(stop)) continue;
       const int first = chunk * kRowsPerChunk, last = std::min(n, first + kRowsPerChunk);
+      if (stopRequested(stop)) {  // incomplete, but never unwritten
+        std::fill(common.begin() + fog.offsets[first], common.begin() + fog.offsets[last], 0.0f);
+        continue;
+      }
       for (int i = first; i < last; ++i) {  // the upper edges of i are the tail of its ascending list
         cursor[i - first] = std::upper_bound(fog.neighbours.begin() + fog.offsets[i],
                                              fog.neighbours.begin() + fog.offsets[i + 1], i) -
                             fog.neighbours.begin();
+        std::fill(common.begin() + fog.offsets[i], common.begin() + cursor[i - first], 0.0f);
       }
       for (int block_end = (first / columns + 1) * columns;; block_end += columns) {
         bool more = false;

@@ -60,7 +60,7 @@ SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order,
     out.pruned = pruneDenseGraph(buildSecondOrderGraph(first_order, num_threads, stop), dense_mean_degree);
     return out;
   }
-  const std::vector<float> common = countedCommonSums(first_order, num_threads, stop);
+  const EdgeSums common = countedCommonSums(first_order, num_threads, stop);
   std::size_t edges = 0;
   const float threshold = otsuThresholdOfSums(first_order, common, edges, num_threads);
   // pruneDenseGraph's test, on the second-order graph's edge count.

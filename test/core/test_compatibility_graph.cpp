@@ -216,7 +216,7 @@ TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
     std::vector<char> keep(1200, 1);
     for (int i = 0; i < 1200; i += 11) keep[i] = 0;
     fog = keepNodes(fog, keep);
-    const std::vector<float> common = countedCommonSums(fog, 1);
+    const EdgeSums common = countedCommonSums(fog, 1);
     ASSERT_GT(std::count(common.begin(), common.end(), 0.0f), 0);
     const CompatibilityGraph all = triangleEdgesFromSums(fog, common, 0.0f, 1);
     const std::string where = "density " + std::to_string(density);
@@ -234,6 +234,31 @@ TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
       EXPECT_EQ(edges, all.numEdges()) << with;
     }
   }
+}
+
+// The counted sums are written in full on the threads (their buffer starts uninitialised): the same sums
+// bit for bit on 1-3 threads, 0 at every lower entry, and all 0 when the stop flag is up from the start.
+TEST(SecondOrderGraph, CountedSumsAreWrittenInFullOnAnyThreadCount) {
+  const CompatibilityGraph fog = randomGraphWithWeightsFrom(900, 0.1, 0.99f, 5);
+  const EdgeSums one = countedCommonSums(fog, 1);
+  ASSERT_EQ(one.size(), fog.neighbours.size());
+  std::size_t positive = 0;
+  for (int i = 0; i < fog.num_nodes; ++i) {
+    for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p) {
+      if (fog.neighbours[p] < i) {
+        EXPECT_EQ(one[p], 0.0f) << "lower entry " << p;
+      }
+      positive += one[p] > 0.0f;
+    }
+  }
+  EXPECT_GT(positive, fog.numEdges() / 2);
+  for (const int threads : {2, 3}) {
+    const EdgeSums many = countedCommonSums(fog, threads);
+    EXPECT_TRUE(std::equal(one.begin(), one.end(), many.begin(), many.end())) << threads << " threads";
+  }
+  const StopFlag stop{true};
+  const EdgeSums stopped = countedCommonSums(fog, 2, &stop);
+  EXPECT_EQ(std::count(stopped.begin(), stopped.end(), 0.0f), static_cast<long>(stopped.size()));
 }
 
 TEST(CompatibilityGraph, KeepNodes) {

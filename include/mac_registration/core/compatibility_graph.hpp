@@ -8,6 +8,7 @@
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
+#include "mac_registration/core/uninitialised_vector.hpp"
 
 namespace mac_registration {
 
@@ -81,22 +82,24 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, 
 CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
                                                 const StopFlag* stop = nullptr);
 
+// A value for each entry of a graph's lists, in their order.
+using EdgeSums = UninitialisedVector<float>;
+
 // The estimate of buildCountedSecondOrderGraph before its graph is built: sum_k S_ik S_jk of every edge
 // i < j at its position in i's first-order list (0 for an edge in no triangle, and at the lower ends).
-std::vector<float> countedCommonSums(const CompatibilityGraph& first_order, int num_threads,
-                                     const StopFlag* stop = nullptr);
+EdgeSums countedCommonSums(const CompatibilityGraph& first_order, int num_threads,
+                           const StopFlag* stop = nullptr);
 
 // The graph of those sums (the edges with a positive sum, weighted S_ij * sum) with only its edges of
 // weight >= min_weight: buildCountedSecondOrderGraph's graph for 0, and withoutWeakEdges of it for
 // another weight, bit for bit, without building it first. The same graph whatever num_threads.
-CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& first_order,
-                                         const std::vector<float>& common, float min_weight,
-                                         int num_threads = 1);
+CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& first_order, const EdgeSums& common,
+                                         float min_weight, int num_threads = 1);
 
 // otsuEdgeThreshold of triangleEdgesFromSums(first_order, common, 0) and that graph's edge count, without
 // building it. The same whatever num_threads.
-float otsuThresholdOfSums(const CompatibilityGraph& first_order, const std::vector<float>& common,
-                          std::size_t& edges, int num_threads = 1);
+float otsuThresholdOfSums(const CompatibilityGraph& first_order, const EdgeSums& common, std::size_t& edges,
+                          int num_threads = 1);
 
 // Whether the bitsets of buildCountedSecondOrderGraph on this graph stay within 64 MB.
 bool neighbourCountsFit(const CompatibilityGraph& graph);
