@@ -183,26 +183,32 @@ TEST_F(RefineTransform, SameRoundsAsFreshVectorsEachRound) {
   }
 }
 
+// inlierWeights computes the residuals in a vectorized pass: the same inliers and, bit for bit, the weights
+// of the scalar residuals(), for a pose with a rotation too, and on a count that leaves a vector tail.
 TEST(HypothesisEvaluatorWeights, InlierWeightsMatchInliersAndResiduals) {
-  CorrespondenceSet c;
-  c.source_points = Eigen::Matrix3Xd::Random(3, 300);
-  c.target_points = c.source_points + 0.08 * Eigen::Matrix3Xd::Random(3, 300);
-  EvaluationParams p;
-  p.inlier_threshold = 0.1;
-  const HypothesisEvaluator e(c, p);
-  const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  std::vector<int> indices = {7, 8};  // stale content is replaced
-  std::vector<double> weights(5, 3.0);
-  e.inlierWeights(T, 0.07, indices, weights);
-  EXPECT_EQ(indices, e.inliers(T));
-  ASSERT_GT(indices.size(), 10u);
-  ASSERT_LT(indices.size(), 300u);
-  const std::vector<double> r = e.residuals(T);
-  ASSERT_EQ(weights.size(), 300u);
-  std::vector<char> inlier(300, 0);
-  for (int i : indices) inlier[i] = 1;
-  for (int i = 0; i < 300; ++i)
-    EXPECT_EQ(weights[i], inlier[i] ? 1.0 / (1.0 + (r[i] / 0.07) * (r[i] / 0.07)) : 0.0) << "i = " << i;
+  const int n = 301;
+  const Eigen::Isometry3d moved = Eigen::Translation3d(0.3, -0.2, 0.1) *
+                                  Eigen::AngleAxisd(0.4, Eigen::Vector3d(1.0, 2.0, 3.0).normalized());
+  for (const Eigen::Isometry3d& T : {Eigen::Isometry3d(Eigen::Isometry3d::Identity()), moved}) {
+    CorrespondenceSet c;
+    c.source_points = Eigen::Matrix3Xd::Random(3, n);
+    c.target_points = T * c.source_points + 0.08 * Eigen::Matrix3Xd::Random(3, n);
+    EvaluationParams p;
+    p.inlier_threshold = 0.1;
+    const HypothesisEvaluator e(c, p);
+    std::vector<int> indices = {7, 8};  // stale content is replaced
+    std::vector<double> weights(5, 3.0);
+    e.inlierWeights(T, 0.07, indices, weights);
+    EXPECT_EQ(indices, e.inliers(T));
+    ASSERT_GT(indices.size(), 10u);
+    ASSERT_LT(indices.size(), std::size_t(n));
+    const std::vector<double> r = e.residuals(T);
+    ASSERT_EQ(weights.size(), std::size_t(n));
+    std::vector<char> inlier(n, 0);
+    for (int i : indices) inlier[i] = 1;
+    for (int i = 0; i < n; ++i)
+      EXPECT_EQ(weights[i], inlier[i] ? 1.0 / (1.0 + (r[i] / 0.07) * (r[i] / 0.07)) : 0.0) << "i = " << i;
+  }
 }
 
 }  // namespace
