@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "graph_test_support.hpp"
@@ -175,6 +176,38 @@ TEST(FirstOrderGraph, BitIdenticalToThePairByPairTest) {
       EXPECT_EQ(fog.graph.offsets, expected.offsets) << threads << " threads";
       EXPECT_EQ(fog.graph.neighbours, expected.neighbours) << threads << " threads";
       EXPECT_EQ(fog.graph.weights, expected.weights) << threads << " threads";
+    }
+  }
+}
+
+// Pairs whose d lies on the test's edge (offsets along a line that are multiples of the bound, a hair
+// below, on and above it, where float rounding decides), at several distances and row lengths: the
+// sixteen-pair rows keep exactly the pairs the pair-by-pair test keeps, bit for bit.
+TEST(FirstOrderGraph, PairsOnTheBoundAreTheOnesThePairTestKeeps) {
+  GraphParams params;
+  params.gaussian_sigma = 0.05;
+  const double bound = params.gaussian_sigma * std::sqrt(-2.0 * std::log(params.t_cmp));
+  for (const double spacing : {0.3, 1.0, 7.0}) {
+    for (const double factor : {1.0 - 1e-6, 1.0, 1.0 + 1e-6}) {
+      // Source x_i = spacing i; target at spacing i + e_i along another direction: d_ij = |e_i - e_j|.
+      const Eigen::Vector3d direction = Eigen::Vector3d(1.0, 2.0, 2.0) / 3.0;
+      CorrespondenceSet c;
+      c.source_points.resize(3, 203);
+      c.target_points.resize(3, 203);
+      for (int i = 0; i < 203; ++i) {
+        const double e = double(i % 7) * bound * factor;
+        c.source_points.col(i) = Eigen::Vector3d(spacing * i, 0.0, 0.0);
+        c.target_points.col(i) = Eigen::Vector3d(5.0, -3.0, 1.0) + (spacing * i + e) * direction;
+      }
+      const CompatibilityGraph expected = pairByPairFirstOrder(c, params);
+      ASSERT_GT(expected.numEdges(), 1000u) << spacing << " " << factor;
+      for (const int threads : {1, 2}) {
+        const FirstOrderGraph fog = buildFirstOrderGraph(c, params, threads);
+        const std::string where = "spacing " + std::to_string(spacing) + ", factor " + std::to_string(factor);
+        EXPECT_EQ(fog.graph.offsets, expected.offsets) << where;
+        EXPECT_EQ(fog.graph.neighbours, expected.neighbours) << where;
+        EXPECT_EQ(fog.graph.weights, expected.weights) << where;
+      }
     }
   }
 }
