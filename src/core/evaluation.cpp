@@ -122,6 +122,13 @@ std::vector<int> HypothesisEvaluator::inliers(const Eigen::Isometry3d& T) const 
   return indices;
 }
 
+void HypothesisEvaluator::squaredResiduals(const Eigen::Isometry3d& T, std::vector<double>& squared) const {
+  const CentredTransform m(T, source_centroid_, target_centroid_);
+  squared.resize(sx_.size());
+  residualsSquaredKernel(sx_.data(), sy_.data(), sz_.data(), tx_.data(), ty_.data(), tz_.data(), sx_.size(),
+                         m.r, m.t, squared.data());
+}
+
 void HypothesisEvaluator::inlierWeights(const Eigen::Isometry3d& T, double scale, std::vector<int>& indices,
                                         std::vector<double>& weights) const {
   const CentredTransform m(T, source_centroid_, target_centroid_);

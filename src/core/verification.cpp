@@ -230,15 +230,26 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
 
   // What the reported pose explains is no evidence for a rival: a hypothesis near it shares its inliers,
   // a chance alignment elsewhere has inliers of its own.
-  const std::vector<double> best_residuals = evaluator.residuals(best);
+  // Residuals are compared with tau as square roots of the squares, the same doubles as residuals(); only
+  // squares below a hair over tau^2 can have a root below tau (the hair is far above the roots' rounding),
+  // so the others need no root, and add nothing.
+  const double near_tau2 = tau * tau * (1.0 + 1e-9);
+  const auto residualBelowTau = [&](double squared) {
+    return squared < near_tau2 && std::sqrt(squared) < tau;
+  };
+  std::vector<double> squared;
+  evaluator.squaredResiduals(best, squared);
+  std::vector<char> explained(squared.size());
+  for (std::size_t i = 0; i < squared.size(); ++i) explained[i] = residualBelowTau(squared[i]);
   std::vector<RivalCandidate> rivals;
   for (const int h : order) {
     if (int(rivals.size()) >= kRivalsExamined || stopRequested(stop)) break;
     if (rmsDisplacement(hypotheses[h].T_target_source, best, moments) <= distinct) continue;
-    const std::vector<double> residuals = evaluator.residuals(hypotheses[h].T_target_source);
+    evaluator.squaredResiduals(hypotheses[h].T_target_source, squared);
     double exclusive = 0.0;
-    for (std::size_t i = 0; i < residuals.size(); ++i) {
-      if (!(best_residuals[i] < tau)) exclusive += closeness(residuals[i], tau, params.evaluation.metric);
+    for (std::size_t i = 0; i < squared.size(); ++i) {
+      if (!explained[i] && squared[i] < near_tau2)
+        exclusive += closeness(std::sqrt(squared[i]), tau, params.evaluation.metric);
     }
     rivals.push_back({h, exclusive});
   }

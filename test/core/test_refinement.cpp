@@ -183,8 +183,9 @@ TEST_F(RefineTransform, SameRoundsAsFreshVectorsEachRound) {
   }
 }
 
-// inlierWeights computes the residuals in a vectorized pass: the same inliers and, bit for bit, the weights
-// of the scalar residuals(), for a pose with a rotation too, and on a count that leaves a vector tail.
+// inlierWeights and squaredResiduals compute the residuals in a vectorized pass: the same inliers and, bit
+// for bit, the weights and squares of the scalar residuals(), for a pose with a rotation too, and on a count
+// that leaves a vector tail.
 TEST(HypothesisEvaluatorWeights, InlierWeightsMatchInliersAndResiduals) {
   const int n = 301;
   const Eigen::Isometry3d moved = Eigen::Translation3d(0.3, -0.2, 0.1) *
@@ -208,6 +209,10 @@ TEST(HypothesisEvaluatorWeights, InlierWeightsMatchInliersAndResiduals) {
     for (int i : indices) inlier[i] = 1;
     for (int i = 0; i < n; ++i)
       EXPECT_EQ(weights[i], inlier[i] ? 1.0 / (1.0 + (r[i] / 0.07) * (r[i] / 0.07)) : 0.0) << "i = " << i;
+    std::vector<double> squared(3, -1.0);
+    e.squaredResiduals(T, squared);
+    ASSERT_EQ(squared.size(), std::size_t(n));
+    for (int i = 0; i < n; ++i) EXPECT_EQ(std::sqrt(squared[i]), r[i]) << "i = " << i;
   }
 }
 

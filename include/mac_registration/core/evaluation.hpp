@@ -26,6 +26,9 @@ class HypothesisEvaluator {
   // Indices whose residual is below tau, and the residuals of all correspondences.
   std::vector<int> inliers(const Eigen::Isometry3d& T_target_source) const;
   std::vector<double> residuals(const Eigen::Isometry3d& T_target_source) const;
+  // The squares of residuals() into `squared` (resized to size()), each exactly the value whose square
+  // root residuals() gives, from one vectorized pass and without an allocation once it has grown.
+  void squaredResiduals(const Eigen::Isometry3d& T_target_source, std::vector<double>& squared) const;
   // inliers() into `indices` and, for each of them, the refinement's weight 1 / (1 + (r / scale)^2) with r
   // as residuals() gives it and scale in m, into `weights` (0 for the others; resized to size()). One
   // pass, and no allocation once the vectors have grown: the refinement calls it every round.
