@@ -277,22 +277,42 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
     return std::all_of(kept.begin(), kept.end(),
                        [&](const Eigen::Isometry3d& k) { return rmsDisplacement(T, k, moments) > distinct; });
   };
-  for (const RivalCandidate& rival : rivals) {
+  // Many refined rivals fall into a pose already listed, so a dozen refinements can go into three
+  // alternatives. They are refined a batch at a time on the threads: the next rivals still far from
+  // every pose kept (kept only grows, so one near it now stays near it), then accepted in order as one
+  // at a time would, re-checked against what the batch added. The same alternatives on any thread count.
+  const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
+  std::vector<int> batch;
+  std::vector<RefinementOutcome> refined;
+  for (std::size_t next = 0; next < rivals.size();) {
     if (result.alternatives.size() >= params.verification.max_alternatives || stopRequested(stop)) break;
-    const ScoredHypothesis& h = hypotheses[rival.hypothesis];
-    if (!farFromKept(h.T_target_source)) continue;
-    const RefinementOutcome refined =
-        refineTransform(h.T_target_source, h.score, c, evaluator, params.evaluation, params.refinement, stop);
-    if (!farFromKept(refined.T_target_source)) continue;  // it fell into a pose already listed
-    kept.push_back(refined.T_target_source);
-    PoseAlternative alternative;
-    alternative.T_target_source = refined.T_target_source;
-    alternative.score = refined.score.score;
-    alternative.inliers = refined.score.inliers;
-    alternative.score_ratio = result.score > 0.0 ? alternative.score / result.score : 0.0;
-    alternative.rotation_deg = rotationErrorDeg(best, refined.T_target_source);
-    alternative.displacement = rmsDisplacement(best, refined.T_target_source, moments);
-    result.alternatives.push_back(alternative);
+    batch.clear();
+    for (; next < rivals.size() && int(batch.size()) < threads; ++next) {
+      if (farFromKept(hypotheses[rivals[next].hypothesis].T_target_source))
+        batch.push_back(rivals[next].hypothesis);
+    }
+    refined.assign(batch.size(), RefinementOutcome{});
+#pragma omp parallel for schedule(static, 1) num_threads(threads) if (batch.size() > 1)
+    for (int k = 0; k < int(batch.size()); ++k) {
+      const ScoredHypothesis& h = hypotheses[batch[k]];
+      refined[k] = refineTransform(h.T_target_source, h.score, c, evaluator, params.evaluation,
+                                   params.refinement, stop);
+    }
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      if (result.alternatives.size() >= params.verification.max_alternatives || stopRequested(stop)) break;
+      if (!farFromKept(hypotheses[batch[k]].T_target_source)) continue;
+      const RefinementOutcome& r = refined[k];
+      if (!farFromKept(r.T_target_source)) continue;  // it fell into a pose already listed
+      kept.push_back(r.T_target_source);
+      PoseAlternative alternative;
+      alternative.T_target_source = r.T_target_source;
+      alternative.score = r.score.score;
+      alternative.inliers = r.score.inliers;
+      alternative.score_ratio = result.score > 0.0 ? alternative.score / result.score : 0.0;
+      alternative.rotation_deg = rotationErrorDeg(best, r.T_target_source);
+      alternative.displacement = rmsDisplacement(best, r.T_target_source, moments);
+      result.alternatives.push_back(alternative);
+    }
   }
 }
 

@@ -372,6 +372,31 @@ CorrespondenceSet shuffledTargets(CorrespondenceSet c, unsigned seed) {
   return c;
 }
 
+// The alternatives are refined a batch at a time on the threads and accepted in order: the same list,
+// bit for bit, on 1-3 threads, on the shipped set and on a shuffled one (whose chance rivals often refine
+// into a pose already listed).
+TEST(RivalRatio, AlternativesAreTheSameWhateverTheThreadCount) {
+  for (const bool shuffled : {false, true}) {
+    const CorrespondenceSet c = shuffled ? shuffledTargets(shippedSet(), 7) : shippedSet();
+    MacParams params;
+    params.num_threads = 1;
+    const MacResult one = registerCorrespondences(c, params);
+    ASSERT_FALSE(one.alternatives.empty()) << (shuffled ? "shuffled" : "shipped");
+    for (const int threads : {2, 3}) {
+      params.num_threads = threads;
+      const MacResult many = registerCorrespondences(c, params);
+      ASSERT_EQ(many.alternatives.size(), one.alternatives.size()) << threads << " threads";
+      for (std::size_t k = 0; k < one.alternatives.size(); ++k) {
+        EXPECT_EQ(many.alternatives[k].T_target_source.matrix(),
+                  one.alternatives[k].T_target_source.matrix());
+        EXPECT_EQ(many.alternatives[k].score, one.alternatives[k].score);
+        EXPECT_EQ(many.alternatives[k].inliers, one.alternatives[k].inliers);
+      }
+      EXPECT_EQ(many.confidence, one.confidence) << threads << " threads";
+    }
+  }
+}
+
 TEST(ChanceLevel, ARightConsensusStandsFarAboveChance) {
   const MacResult r = registerCorrespondences(shippedSet(), MacParams{});
   ASSERT_TRUE(r.success) << r.message;
