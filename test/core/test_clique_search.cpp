@@ -7,7 +7,10 @@
 #include <cmath>
 #include <functional>
 #include <future>
+#include <iterator>
 #include <memory>
+#include <numeric>
+#include <random>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -97,6 +100,58 @@ CompatibilityGraph disjointTriangles(int count) {
   return graphFromEdges(3 * count, edges);
 }
 
+// Every maximal clique of at least `min_size` nodes, by Bron-Kerbosch without a pivot over all the nodes:
+// slow and plain, the reference for the search.
+std::vector<Clique> maximalCliquesByHand(const CompatibilityGraph& graph, std::size_t min_size) {
+  std::vector<Clique> out;
+  const std::function<void(Clique, std::vector<int>, std::vector<int>)> extend =
+      [&](Clique r, std::vector<int> p, std::vector<int> x) {
+        if (p.empty() && x.empty()) {
+          if (r.size() >= min_size) out.push_back(r);
+          return;
+        }
+        while (!p.empty()) {
+          const int v = p.front();
+          const auto adjacent = [&](int u) { return graph.weight(u, v) > 0.0f; };
+          std::vector<int> p_next, x_next;
+          std::copy_if(p.begin(), p.end(), std::back_inserter(p_next), adjacent);
+          std::copy_if(x.begin(), x.end(), std::back_inserter(x_next), adjacent);
+          Clique grown = r;
+          grown.insert(std::upper_bound(grown.begin(), grown.end(), v), v);
+          extend(grown, p_next, x_next);
+          p.erase(p.begin());
+          x.push_back(v);
+        }
+      };
+  std::vector<int> all(graph.num_nodes);
+  std::iota(all.begin(), all.end(), 0);
+  extend({}, all, {});
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Only the edges in a triangle go to igraph: on random graphs with many edges in none (pendant paths,
+// chance edges between cliques), the cliques are the reference's, for minimum sizes 3 and 4; with a
+// minimum of 2 every edge is kept and the lone edges are cliques too.
+TEST(CliqueSearch, EdgesInNoTriangleChangeNoClique) {
+  std::mt19937 rng(5);
+  for (const double density : {0.05, 0.15, 0.3}) {
+    std::vector<std::pair<int, int>> edges;
+    std::bernoulli_distribution edge(density);
+    for (int a = 0; a < 36; ++a)
+      for (int b = a + 1; b < 36; ++b)
+        if (edge(rng)) edges.push_back({a, b});
+    for (int a = 36; a + 1 < 48; ++a) edges.push_back({a, a + 1});  // a path: no triangle
+    const CompatibilityGraph graph = graphFromEdges(48, edges);
+    for (const int min_size : {2, 3, 4}) {
+      CliqueSearchParams params;
+      params.min_clique_size = min_size;
+      EXPECT_EQ(search(graph, params).cliques, maximalCliquesByHand(graph, std::size_t(min_size)))
+          << "density " << density << ", min size " << min_size;
+    }
+  }
+}
+
 TEST(CliqueSearch, IsolatedNodesKeepTheirIdsAndCostNothing) {
   // A triangle among 300 000 nodes, the shape of a graph reduced from a large correspondence set. Handed
   // to igraph whole, its enumeration would be quadratic in the node count (over 10 s).
@@ -179,20 +234,16 @@ TEST(CliqueSearch, MaxDegeneracyThinsDenseCores) {
 
 // A cycle has no triangle: the search streams nothing, so only igraph's interruption checks (in its core
 // decomposition, its set-up and its loop over vertices) can stop it at the deadline.
-CompatibilityGraph cycle(int n) {
-  std::vector<std::pair<int, int>> edges;
-  for (int i = 0; i + 1 < n; ++i) edges.push_back({i, i + 1});
-  edges.push_back({0, n - 1});
-  return graphFromEdges(n, edges);
-}
 
 TEST(CliqueSearch, InterruptedSearchesLeaveIgraphClean) {
   // A thousand searches stopped at deadlines spread from before igraph starts to after it finishes, so
   // that igraph is interrupted inside nested functions as well as in its main loop. An interrupted igraph
   // function leaves its temporaries on igraph's cleanup stack; left there, they either fill it (igraph
   // then aborts the process) or are freed by the next igraph error after their frames are gone.
-  const CompatibilityGraph graph = cycle(4000);
+  // 1334 triangles (4002 nodes) searched for cliques of 4: igraph works through every vertex and finds none.
+  const CompatibilityGraph graph = disjointTriangles(1334);
   CliqueSearchParams params;
+  params.min_clique_size = 4;
   params.max_pruning_rounds = 0;
   int interrupted = 0;
   for (int call = 0; call < 1000; ++call) {
