@@ -172,14 +172,6 @@ bool checkInput(const CorrespondenceSet& input, const MacParams& params, Sanitiz
   return true;
 }
 
-void reportSecondOrderBound(std::size_t kept_nodes, MacResult& result) {
-  result.graph_reduced = true;
-  result.counters.graph_nodes = kept_nodes;
-  result.warnings.push_back(
-      "graph too dense for the second-order budget (graph.max_second_order_work): kept the " +
-      std::to_string(kept_nodes) + " correspondences of highest degree");
-}
-
 // Stage 1: the first-order graph, with what its bounds did.
 CompatibilityGraph firstOrderStage(const CorrespondenceSet& c, const MacParams& params, int threads,
                                    const StopFlag* stop, MacResult& result) {
@@ -201,24 +193,25 @@ CompatibilityGraph firstOrderStage(const CorrespondenceSet& c, const MacParams& 
                               std::to_string(fog.compatible_pairs) + " compatible pairs): built on the " +
                               std::to_string(fog.reduced_to) + " correspondences of highest degree");
   }
-  if (fog.second_order_bounded) reportSecondOrderBound(fog.second_order_kept_nodes, result);
+  if (fog.second_order_bounded) {
+    result.graph_reduced = true;
+    result.counters.graph_nodes = fog.second_order_kept_nodes;
+    result.warnings.push_back(
+        "graph too dense for the second-order budget (graph.max_second_order_work): kept the " +
+        std::to_string(fog.second_order_kept_nodes) + " correspondences of highest degree");
+  }
   result.times.graph_ms = millisecondsSince(start);
   return std::move(fog.graph);
 }
 
-// Stage 2: the second-order weights within their budget, then the pruning of a dense graph's weak edges.
+// Stage 2: the second-order weights (their budget came with the first-order graph), then the pruning of a
+// dense graph's weak edges.
 CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& params, int threads,
                                     const StopFlag* stop, MacResult& result) {
   const auto start = Clock::now();
   BoundedGraph pruned;
   if (params.graph.second_order) {
-    // The first-order stage applied the budget already (to its rows, before building the lists); this
-    // is the same bound, for a graph that came another way.
-    BoundedGraph bounded =
-        boundSecondOrderWork(std::move(graph), params.graph.max_second_order_work, threads, stop);
-    if (bounded.reduced) reportSecondOrderBound(bounded.kept_nodes, result);
-    if (!stopRequested(stop))
-      pruned = prunedSecondOrderGraph(bounded.graph, params.graph.dense_mean_degree, threads, stop).pruned;
+    pruned = prunedSecondOrderGraph(graph, params.graph.dense_mean_degree, threads, stop).pruned;
   } else {
     pruned = pruneDenseGraph(std::move(graph), params.graph.dense_mean_degree);
   }

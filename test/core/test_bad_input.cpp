@@ -2,6 +2,8 @@
 // never in a crash, a NaN pose or an uninitialized one.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -224,6 +226,29 @@ TEST(BadInput, CountBoundIsReportedAsIncompleteSearch) {
   EXPECT_EQ(result.counters.cliques, 10u);
   ASSERT_FALSE(result.warnings.empty());
   EXPECT_NE(result.warnings.back().find("cliques.max_cliques"), std::string::npos);
+}
+
+// A graph over the second-order budget is cut to its highest-degree nodes while the first-order graph is
+// built; the result says so once, and counts the nodes kept.
+TEST(BadInput, SecondOrderBudgetIsReportedOnce) {
+  const SyntheticProblem problem =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.5, 17));
+  MacParams params = test::roomScaleParams();
+  params.graph.max_second_order_work = 1e5;
+  const MacResult result = registerCorrespondences(problem.correspondences, params);
+  EXPECT_TRUE(result.graph_reduced);
+  EXPECT_LT(result.counters.graph_nodes, 1000u);
+  EXPECT_GT(result.counters.graph_nodes, 3u);
+  const auto warns = std::count_if(result.warnings.begin(), result.warnings.end(), [](const std::string& w) {
+    return w.find("graph.max_second_order_work") != std::string::npos;
+  });
+  EXPECT_EQ(warns, 1);
+  EXPECT_NE(std::find_if(result.warnings.begin(), result.warnings.end(),
+                         [&](const std::string& w) {
+                           return w.find("kept the " + std::to_string(result.counters.graph_nodes)) !=
+                                  std::string::npos;
+                         }),
+            result.warnings.end());
 }
 
 }  // namespace
