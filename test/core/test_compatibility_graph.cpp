@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -236,10 +237,20 @@ TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
   }
 }
 
+// Frees buffers of `floats` NaNs twice over, so that the next buffer of that size is likely to reuse one:
+// an entry left unwritten then reads as NaN, not as the zero of a fresh page.
+void leaveNaNsOnTheHeap(std::size_t floats) {
+  for (int round = 0; round < 2; ++round) {
+    std::vector<float> dirt(floats, std::numeric_limits<float>::quiet_NaN());
+    asm volatile("" : : "r"(dirt.data()) : "memory");  // the fill must reach memory before the free
+  }
+}
+
 // The counted sums are written in full on the threads (their buffer starts uninitialised): the same sums
 // bit for bit on 1-3 threads, 0 at every lower entry, and all 0 when the stop flag is up from the start.
 TEST(SecondOrderGraph, CountedSumsAreWrittenInFullOnAnyThreadCount) {
   const CompatibilityGraph fog = randomGraphWithWeightsFrom(900, 0.1, 0.99f, 5);
+  leaveNaNsOnTheHeap(fog.neighbours.size());
   const EdgeSums one = countedCommonSums(fog, 1);
   ASSERT_EQ(one.size(), fog.neighbours.size());
   std::size_t positive = 0;
@@ -253,10 +264,12 @@ TEST(SecondOrderGraph, CountedSumsAreWrittenInFullOnAnyThreadCount) {
   }
   EXPECT_GT(positive, fog.numEdges() / 2);
   for (const int threads : {2, 3}) {
+    leaveNaNsOnTheHeap(fog.neighbours.size());
     const EdgeSums many = countedCommonSums(fog, threads);
     EXPECT_TRUE(std::equal(one.begin(), one.end(), many.begin(), many.end())) << threads << " threads";
   }
   const StopFlag stop{true};
+  leaveNaNsOnTheHeap(fog.neighbours.size());
   const EdgeSums stopped = countedCommonSums(fog, 2, &stop);
   EXPECT_EQ(std::count(stopped.begin(), stopped.end(), 0.0f), static_cast<long>(stopped.size()));
 }
