@@ -93,9 +93,8 @@ bool inTriangle(const CompatibilityGraph& graph, int u, int v) {
 // nodes they join, go to igraph: such a clique is made of those edges alone, and one that is maximal
 // stays maximal without the others, so the cliques are the same. igraph's enumeration clears a vector of all
 // its vertices for each vertex it starts from, so the nodes left out would make it quadratic for nothing: a
-// chance graph after Otsu's cut is mostly edges in no triangle (the real set 24 -> 59: 1235 of its 2911
-// nodes with an edge are in a triangle), and a graph reduced or thinned from a large set mostly isolated
-// nodes (igraph 0.10: 1.3 s for 100 000 isolated vertices, 16 s for 300 000).
+// chance graph after Otsu's cut keeps many edges in no triangle, and a graph reduced or thinned from a
+// large set mostly isolated nodes (igraph 0.10: 1.3 s for 100 000 isolated vertices, 16 s for 300 000).
 igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
                                 SearchState& state) {
   const bool triangles_only = params.min_clique_size >= 3;
@@ -106,14 +105,14 @@ igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSea
   const auto keep = [&](int i, int j) {
     return !triangles_only || graph.degree(i) + graph.degree(j) > active || inTriangle(graph, i, j);
   };
-  std::vector<char> in_triangle(graph.neighbours.size(), 0);
+  std::vector<char> searched(graph.neighbours.size(), 0);
   std::vector<int> vertex_of_node(graph.num_nodes, -1);
   std::size_t edge_count = 0;
   for (int i = 0; i < graph.num_nodes; ++i) {
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
       const int j = graph.neighbours[p];
       if (j <= i || !keep(i, j)) continue;
-      in_triangle[p] = 1;
+      searched[p] = 1;
       ++edge_count;
       vertex_of_node[i] = vertex_of_node[j] = 0;  // numbered below, in node order
     }
@@ -130,7 +129,7 @@ igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSea
   igraph_integer_t e = 0;
   for (int i = 0; i < graph.num_nodes; ++i) {
     for (auto p = graph.offsets[i]; p < graph.offsets[i + 1]; ++p) {
-      if (!in_triangle[p]) continue;
+      if (!searched[p]) continue;
       VECTOR(edges)[e++] = vertex_of_node[i];
       VECTOR(edges)[e++] = vertex_of_node[graph.neighbours[p]];
     }
