@@ -21,7 +21,8 @@ float listSum(const CompatibilityGraph& fog, const float* row, int j) {
   return sum;
 }
 
-// out[p] = listSum(fog, row, j) for every first-order edge (i, j) at list position p in [first, last).
+// out[p - first] = listSum(fog, row, j) for every first-order edge (i, j) at list position p in
+// [first, last).
 // One sum is a chain of dependent additions whose latency bounds a loop over one list; kLanes edges are
 // summed side by side, each lane taking the next edge as soon as its own ends, so that the chains overlap
 // while each keeps its own order (every sum is exactly listSum's). Short lists are summed one by one: there
@@ -60,7 +61,7 @@ __attribute__((optimize("no-tree-slp-vectorize"))) void commonNeighbourSums(cons
       for (int l = 0; l < kLanes; ++l) {
         list[l] += steps, list_weight[l] += steps, left[l] -= steps;
         if (left[l] > 0) continue;
-        out[slot[l]] = sum[l];
+        out[slot[l] - first] = sum[l];
         if (next < last) {
           start(l);
         } else {
@@ -72,10 +73,10 @@ __attribute__((optimize("no-tree-slp-vectorize"))) void commonNeighbourSums(cons
       if (left[l] == 0) continue;
       float rest = sum[l];
       for (std::int64_t t = 0; t < left[l]; ++t) rest += row[list[l][t]] * list_weight[l][t];
-      out[slot[l]] = rest;
+      out[slot[l] - first] = rest;
     }
   }
-  for (; next < last; ++next) out[next] = listSum(fog, row, neighbours[next]);
+  for (; next < last; ++next) out[next - first] = listSum(fog, row, neighbours[next]);
 }
 
 // The graph with the list entries (node i, position p) that `keep` accepts, weighted by weight_of(p).
@@ -115,13 +116,6 @@ template <typename KeepEntry>
 CompatibilityGraph filteredGraph(const CompatibilityGraph& graph, KeepEntry keep, int num_threads) {
   return filteredGraph(
       graph, keep, [&](std::int64_t p) { return graph.weights[p]; }, num_threads);
-}
-
-// First position of node i's upper neighbours (j > i): the tail of its ascending list.
-std::int64_t upperBegin(const CompatibilityGraph& graph, int i) {
-  return std::upper_bound(graph.neighbours.begin() + graph.offsets[i],
-                          graph.neighbours.begin() + graph.offsets[i + 1], i) -
-         graph.neighbours.begin();
 }
 
 constexpr int kOtsuBins = 256;
@@ -167,14 +161,6 @@ float otsuThreshold(EachWeight each_weight, std::size_t edges) {
   std::vector<double> count(kOtsuBins, 0.0);
   each_weight([&](float w) { count[otsuBin(w, low, span)] += 1.0; });
   return otsuCut(count, double(edges), low, span);
-}
-
-// upperBegin of every node.
-std::vector<std::int64_t> upperBegins(const CompatibilityGraph& graph, int num_threads) {
-  std::vector<std::int64_t> begins(graph.num_nodes);
-#pragma omp parallel for schedule(static) num_threads(num_threads)
-  for (int i = 0; i < graph.num_nodes; ++i) begins[i] = upperBegin(graph, i);
-  return begins;
 }
 
 }  // namespace
@@ -240,11 +226,20 @@ double secondOrderWork(const CompatibilityGraph& graph) {
   return work;
 }
 
+double secondOrderWork(const UpperRows& rows) {
+  // secondOrderWork of the rows' graph: node j's lower neighbours are its degree less its own row.
+  double work = 0.0;
+  for (int j = 0; j < rows.numNodes(); ++j) work += double(rows.degree[j] - rows.count[j]) * rows.degree[j];
+  return work;
+}
+
 CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
                                          const StopFlag* stop) {
   const int n = fog.num_nodes;
-  // Common-neighbour sum of each upper edge, at its position in the first-order lists (0 elsewhere).
-  EdgeSums common(fog.neighbours.size(), 0.0f);
+  const UpperRows rows = upperRowsOf(fog);
+  const std::vector<std::int64_t> start = rows.rowStarts();
+  // Common-neighbour sum of each upper edge, in the order of the rows (0 where a stop left it).
+  EdgeSums common(start.back(), 0.0f);
 #pragma omp parallel num_threads(num_threads)
   {
     // Row i's weights scattered densely, so that a common neighbour k of (i, j) is found by one load while
@@ -258,24 +253,25 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       // The upper edges of i are the tail of its ascending list.
       const auto upper = std::upper_bound(fog.neighbours.begin() + begin, fog.neighbours.begin() + end, i) -
                          fog.neighbours.begin();
-      commonNeighbourSums(fog, row_i.data(), upper, end, common.data());
+      commonNeighbourSums(fog, row_i.data(), upper, end, common.data() + start[i]);
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }
   }
-  return triangleEdgesFromSums(fog, common, 0.0f, num_threads);
+  return triangleEdgesFromSums(rows, common, 0.0f, num_threads);
 }
 
-CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const EdgeSums& common,
-                                         float min_weight, int num_threads) {
-  // The kept upper entries of each first-order row are its node's row in the graph: counted first (at
-  // both ends, for the offsets), then compacted straight into the tails of the lists and mirrored from
-  // there, as graphFromNodeRows does.
-  const int n = fog.num_nodes;
-  const std::vector<std::int64_t> upper_begin = upperBegins(fog, num_threads);
-  const auto kept = [&](std::int64_t p) {
-    return (common[p] > 0.0f) & (fog.weights[p] * common[p] >= min_weight);  // both: no branch
+CompatibilityGraph triangleEdgesFromSums(const UpperRows& fog, const EdgeSums& common, float min_weight,
+                                         int num_threads) {
+  // The kept entries of each first-order row are its node's row in the graph: counted first (at both
+  // ends, for the offsets), then compacted straight into the tails of the lists and mirrored from there,
+  // as graphOfRows does.
+  const int n = fog.numNodes();
+  const std::vector<std::int64_t> start = fog.rowStarts();
+  const auto kept = [&](int i, int c) {
+    const float sum = common[start[i] + c];
+    return (sum > 0.0f) & (fog.weight[i][c] * sum >= min_weight);  // both: no branch
   };
-  NodeRows rows;
+  UpperRows rows;
   rows.count.assign(n, 0);
   rows.degree.assign(n, 0);
 #pragma omp parallel num_threads(num_threads)
@@ -284,10 +280,10 @@ CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const Ed
 #pragma omp for schedule(dynamic, 64)
     for (int i = 0; i < n; ++i) {
       int count = 0;
-      for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-        const bool keep = kept(p);  // close to a coin toss on dense graphs
+      for (int c = 0; c < fog.count[i]; ++c) {
+        const bool keep = kept(i, c);  // close to a coin toss on dense graphs
         count += keep;
-        lower[fog.neighbours[p]] += keep;
+        lower[fog.to[i][c]] += keep;
       }
       rows.count[i] = count;
     }
@@ -306,10 +302,10 @@ CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const Ed
     // Each entry written at the next free slot, kept or not, and the slot taken only when it is kept;
     // the loop ends at the last kept one, so nothing is written past the tail.
     int written = 0;
-    for (auto p = upper_begin[i]; written < rows.count[i]; ++p) {
-      to[written] = fog.neighbours[p];
-      weight[written] = fog.weights[p] * common[p];
-      written += kept(p);
+    for (int c = 0; written < rows.count[i]; ++c) {
+      to[written] = fog.to[i][c];
+      weight[written] = fog.weight[i][c] * common[start[i] + c];
+      written += kept(i, c);
     }
     rows.to[i] = to;
     rows.weight[i] = weight;
@@ -318,21 +314,21 @@ CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& fog, const Ed
   return graph;
 }
 
-float otsuThresholdOfSums(const CompatibilityGraph& fog, const EdgeSums& common, std::size_t& edges,
-                          int num_threads) {
+float otsuThresholdOfSums(const UpperRows& fog, const EdgeSums& common, std::size_t& edges, int num_threads) {
   // otsuThreshold over the edges with a positive sum, in two parallel passes (extremes, then bins):
   // minima, maxima and integer counts are the same in any order.
-  const int n = fog.num_nodes;
-  const std::vector<std::int64_t> upper_begin = upperBegins(fog, num_threads);
+  const int n = fog.numNodes();
+  const std::vector<std::int64_t> start = fog.rowStarts();
   const float kInf = std::numeric_limits<float>::infinity();
   float lightest = kInf, heaviest = -kInf;
   std::int64_t count = 0;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) reduction(min : lightest) \
     reduction(max : heaviest) reduction(+ : count)
   for (int i = 0; i < n; ++i) {
-    for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-      const bool edge = common[p] > 0.0f;
-      const float w = fog.weights[p] * common[p];
+    const float* const sum = common.data() + start[i];
+    for (int c = 0; c < fog.count[i]; ++c) {
+      const bool edge = sum[c] > 0.0f;
+      const float w = fog.weight[i][c] * sum[c];
       count += edge;
       lightest = std::min(lightest, edge ? w : kInf);
       heaviest = std::max(heaviest, edge ? w : -kInf);
@@ -348,9 +344,10 @@ float otsuThresholdOfSums(const CompatibilityGraph& fog, const EdgeSums& common,
     std::vector<std::int64_t> local(kOtsuBins + 1, 0);  // the last one for the entries of no edge
 #pragma omp for schedule(dynamic, 64)
     for (int i = 0; i < n; ++i) {
-      for (auto p = upper_begin[i]; p < fog.offsets[i + 1]; ++p) {
-        const float w = fog.weights[p] * common[p];
-        ++local[common[p] > 0.0f ? otsuBin(w, low, span) : kOtsuBins];
+      const float* const sum = common.data() + start[i];
+      for (int c = 0; c < fog.count[i]; ++c) {
+        const float w = fog.weight[i][c] * sum[c];
+        ++local[sum[c] > 0.0f ? otsuBin(w, low, span) : kOtsuBins];
       }
     }
 #pragma omp critical

@@ -247,8 +247,8 @@ PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std
 // The rows of `pass`, whose point k is node node_of_point[k] of a graph of num_nodes (ascending, so the
 // rows stay ascending); relabels the pass's entries in place. Where the pass kept its rows, its degrees are
 // their counts at both ends.
-NodeRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int num_nodes, int num_threads) {
-  NodeRows rows;
+UpperRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int num_nodes, int num_threads) {
+  UpperRows rows;
   rows.to.assign(num_nodes, nullptr);
   rows.weight.assign(num_nodes, nullptr);
   rows.count.assign(num_nodes, 0);
@@ -328,7 +328,7 @@ void keepRowsOf(PairPass& pass, const std::vector<char>& keep) {
 // What boundSecondOrderWork would do to the graph of the pass, done to its rows before any list is built:
 // a dense consensus makes a first-order graph of millions of edges that the budget then cuts to a few
 // hundred nodes, and building those lists first cost more than the rest of the registration.
-void boundPassSecondOrderWork(PairPass& pass, double budget, const StopFlag* stop, FirstOrderGraph& result) {
+void boundPassSecondOrderWork(PairPass& pass, double budget, const StopFlag* stop, FirstOrderBounds& result) {
   if (budget <= 0.0 || !pass.within_max_edges || secondOrderWorkOfPass(pass) <= budget) return;
   const std::vector<double> degree(pass.degree.begin(), pass.degree.end());
   std::size_t edges = 0;
@@ -362,14 +362,19 @@ std::vector<int> indicesOf(const std::vector<char>& mask) {
 
 }  // namespace
 
-FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads, const StopFlag* stop, double second_order_budget) {
+FirstOrderRows firstOrderRows(const CorrespondenceSet& correspondences, const GraphParams& params,
+                              int num_threads, const StopFlag* stop, double second_order_budget) {
   const int n = static_cast<int>(correspondences.size());
-  FirstOrderGraph result;
-  if (n == 0) {
-    result.graph = graphFromUpperRows(0, {});
+  FirstOrderRows result;
+  const auto no_edges = [&result](int nodes) {
+    result.rows = UpperRows();
+    result.rows.to.assign(nodes, nullptr);
+    result.rows.weight.assign(nodes, nullptr);
+    result.rows.count.assign(nodes, 0);
+    result.rows.degree.assign(nodes, 0);
     return result;
-  }
+  };
+  if (n == 0) return no_edges(0);
   // The pass is O(N^2): above max_correspondences it runs on an evenly spaced subset, which keeps the
   // inlier ratio of the whole set and bounds the time whatever N.
   const std::size_t cap = params.max_correspondences > 0 ? params.max_correspondences : std::size_t(n);
@@ -377,31 +382,44 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
   result.sampled = nodes.size() < std::size_t(n);
   result.sampled_to = nodes.size();
   const PointsSoA points(correspondences, nodes);
-  PairPass pass = compatiblePairs(points, params, params.max_edges, num_threads, stop);
-  result.compatible_pairs = pass.compatible;
+  auto pass =
+      std::make_shared<PairPass>(compatiblePairs(points, params, params.max_edges, num_threads, stop));
+  result.compatible_pairs = pass->compatible;
   if (stopRequested(stop)) {
     result.cancelled = true;
-    result.graph = graphFromUpperRows(n, std::vector<std::vector<UpperEdge>>(n));
-    return result;
+    return no_edges(n);
   }
-  if (pass.within_max_edges) {
-    boundPassSecondOrderWork(pass, second_order_budget, stop, result);
-    result.graph = graphFromNodeRows(nodeRowsOf(pass, nodes, n, num_threads), num_threads);
+  if (pass->within_max_edges) {
+    boundPassSecondOrderWork(*pass, second_order_budget, stop, result);
+    result.rows = nodeRowsOf(*pass, nodes, n, num_threads);
+    result.buffers = std::move(pass);
     return result;
   }
   // Too dense to hold: keep the nodes of highest degree, few enough that even a complete graph on them
   // fits the bound. Inliers of a consensus have the highest degree, so they are what is kept.
   const auto keep_count = static_cast<std::size_t>(std::sqrt(2.0 * static_cast<double>(params.max_edges)));
   const std::vector<int> kept =
-      indicesOf(strongestNodes(std::vector<double>(pass.degree.begin(), pass.degree.end()), keep_count));
+      indicesOf(strongestNodes(std::vector<double>(pass->degree.begin(), pass->degree.end()), keep_count));
+  pass.reset();
   std::vector<int> kept_nodes(kept.size());
   for (std::size_t k = 0; k < kept.size(); ++k) kept_nodes[k] = nodes[kept[k]];
-  PairPass dense = compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop);
-  boundPassSecondOrderWork(dense, second_order_budget, stop, result);
+  auto dense = std::make_shared<PairPass>(
+      compatiblePairs(PointsSoA(points, kept), params, params.max_edges, num_threads, stop));
+  boundPassSecondOrderWork(*dense, second_order_budget, stop, result);
   result.reduced = true;
   result.reduced_to = kept.size();
   result.cancelled = stopRequested(stop);
-  result.graph = graphFromNodeRows(nodeRowsOf(dense, kept_nodes, n, num_threads), num_threads);
+  result.rows = nodeRowsOf(*dense, kept_nodes, n, num_threads);
+  result.buffers = std::move(dense);
+  return result;
+}
+
+FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
+                                     int num_threads, const StopFlag* stop, double second_order_budget) {
+  FirstOrderRows rows = firstOrderRows(correspondences, params, num_threads, stop, second_order_budget);
+  FirstOrderGraph result;
+  static_cast<FirstOrderBounds&>(result) = rows;
+  result.graph = graphOfRows(rows.rows, num_threads);
   return result;
 }
 

@@ -17,7 +17,7 @@ CompatibilityGraph graphWithDegrees(const std::vector<std::int64_t>& degree) {
   return graph;
 }
 
-void mirrorRows(const NodeRows& rows, CompatibilityGraph& graph, int num_threads) {
+void mirrorRows(const UpperRows& rows, CompatibilityGraph& graph, int num_threads) {
   const int n = graph.num_nodes;
   std::vector<std::int64_t> lower_prefix(n + 1, 0);
   for (int v = 0; v < n; ++v) lower_prefix[v + 1] = lower_prefix[v] + graph.degree(v) - rows.count[v];
@@ -59,7 +59,38 @@ void mirrorRows(const NodeRows& rows, CompatibilityGraph& graph, int num_threads
   }
 }
 
-CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads) {
+std::size_t UpperRows::numEdges() const {
+  std::size_t edges = 0;
+  for (const int c : count) edges += static_cast<std::size_t>(c);
+  return edges;
+}
+
+std::vector<std::int64_t> UpperRows::rowStarts() const {
+  std::vector<std::int64_t> starts(count.size() + 1, 0);
+  for (std::size_t i = 0; i < count.size(); ++i) starts[i + 1] = starts[i] + count[i];
+  return starts;
+}
+
+UpperRows upperRowsOf(const CompatibilityGraph& graph) {
+  const int n = graph.num_nodes;
+  UpperRows rows;
+  rows.to.resize(n);
+  rows.weight.resize(n);
+  rows.count.resize(n);
+  rows.degree.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const auto upper = std::upper_bound(graph.neighbours.begin() + graph.offsets[i],
+                                        graph.neighbours.begin() + graph.offsets[i + 1], i) -
+                       graph.neighbours.begin();
+    rows.to[i] = graph.neighbours.data() + upper;
+    rows.weight[i] = graph.weights.data() + upper;
+    rows.count[i] = static_cast<int>(graph.offsets[i + 1] - upper);
+    rows.degree[i] = graph.degree(i);
+  }
+  return rows;
+}
+
+CompatibilityGraph graphOfRows(const UpperRows& rows, int num_threads) {
   CompatibilityGraph graph = graphWithDegrees(rows.degree);
   const int n = graph.num_nodes;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads)

@@ -1,5 +1,5 @@
-// Building the lists of a graph from rows of upper edges, on several threads: shared by the first-order
-// graph and the graph of the second-order sums. Internal to the core.
+// Building the lists of a graph from rows of upper edges, on several threads: shared by graphOfRows and the
+// graph of the second-order sums. Internal to the core.
 #pragma once
 
 #include <cstdint>
@@ -9,14 +9,6 @@
 
 namespace mac_registration {
 
-// The rows of the graph's nodes as spans of a pass's buffers: each ascending, above its node.
-struct NodeRows {
-  std::vector<const int*> to;
-  std::vector<const float*> weight;
-  std::vector<int> count;
-  std::vector<std::int64_t> degree;  // the node's whole degree: its row and the rows that name it
-};
-
 // A graph whose node v has degree[v] neighbours: its offsets, and its lists allocated.
 CompatibilityGraph graphWithDegrees(const std::vector<std::int64_t>& degree);
 
@@ -25,10 +17,6 @@ CompatibilityGraph graphWithDegrees(const std::vector<std::int64_t>& degree);
 // walking all the rows from a binary search to its range, in ascending row order, so that every list
 // comes out ascending without a sort; and in blocks of nodes, so that the lines being written stay cached.
 // The rows may be the graph's own tails.
-void mirrorRows(const NodeRows& rows, CompatibilityGraph& graph, int num_threads);
-
-// graphFromUpperRows on num_threads threads, the same graph bit for bit: each row copied to the tail of
-// its node's list, then mirrored to the lower entries.
-CompatibilityGraph graphFromNodeRows(const NodeRows& rows, int num_threads);
+void mirrorRows(const UpperRows& rows, CompatibilityGraph& graph, int num_threads);
 
 }  // namespace mac_registration

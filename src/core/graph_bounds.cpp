@@ -42,30 +42,31 @@ BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int n
 
 namespace {
 
-bool denserThan(const CompatibilityGraph& graph, double mean_degree) {
-  return mean_degree > 0.0 && graph.num_nodes > 0 &&
-         2.0 * double(graph.numEdges()) / graph.num_nodes > mean_degree;
+// Whether a graph of `edges` on `nodes` has a mean degree above mean_degree (never for 0).
+bool denserThan(std::size_t edges, int nodes, double mean_degree) {
+  return mean_degree > 0.0 && nodes > 0 && 2.0 * double(edges) / nodes > mean_degree;
 }
 
 }  // namespace
 
-SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order, double dense_mean_degree,
+SecondOrderOutcome prunedSecondOrderGraph(const UpperRows& first_order, double dense_mean_degree,
                                           int num_threads, const StopFlag* stop) {
   // One 512-bit AND and popcount (eight words) costs about two random-access multiply-adds of the exact sum.
   constexpr double kWordsPerMultiplyAdd = 4.0;
   SecondOrderOutcome out;
-  out.counted = denserThan(first_order, dense_mean_degree) && neighbourCountsFit(first_order) &&
+  const int n = first_order.numNodes();
+  out.counted = denserThan(first_order.numEdges(), n, dense_mean_degree) && neighbourCountsFit(first_order) &&
                 countedSecondOrderWork(first_order) / kWordsPerMultiplyAdd < secondOrderWork(first_order);
   if (!out.counted) {
-    out.pruned = pruneDenseGraph(buildSecondOrderGraph(first_order, num_threads, stop), dense_mean_degree);
+    out.pruned = pruneDenseGraph(
+        buildSecondOrderGraph(graphOfRows(first_order, num_threads), num_threads, stop), dense_mean_degree);
     return out;
   }
   const EdgeSums common = countedCommonSums(first_order, num_threads, stop);
   std::size_t edges = 0;
   const float threshold = otsuThresholdOfSums(first_order, common, edges, num_threads);
   // pruneDenseGraph's test, on the second-order graph's edge count.
-  const bool dense =
-      first_order.num_nodes > 0 && 2.0 * double(edges) / first_order.num_nodes > dense_mean_degree;
+  const bool dense = denserThan(edges, n, dense_mean_degree);
   out.pruned.graph = triangleEdgesFromSums(first_order, common, dense ? threshold : 0.0f, num_threads);
   out.pruned.reduced = dense;
   out.pruned.removed_edges = dense ? edges - out.pruned.graph.numEdges() : 0;
@@ -74,7 +75,7 @@ SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order,
 
 BoundedGraph pruneDenseGraph(CompatibilityGraph graph, double dense_mean_degree) {
   BoundedGraph out;
-  if (!denserThan(graph, dense_mean_degree)) {
+  if (!denserThan(graph.numEdges(), graph.num_nodes, dense_mean_degree)) {
     out.graph = std::move(graph);
     return out;
   }

@@ -172,14 +172,14 @@ bool checkInput(const CorrespondenceSet& input, const MacParams& params, Sanitiz
   return true;
 }
 
-// Stage 1: the first-order graph, with what its bounds did.
-CompatibilityGraph firstOrderStage(const CorrespondenceSet& c, const MacParams& params, int threads,
-                                   const StopFlag* stop, MacResult& result) {
+// Stage 1: the first-order graph, as the rows of its pass, with what its bounds did.
+FirstOrderRows firstOrderStage(const CorrespondenceSet& c, const MacParams& params, int threads,
+                               const StopFlag* stop, MacResult& result) {
   const auto start = Clock::now();
   const double second_order_budget = params.graph.second_order ? params.graph.max_second_order_work : 0.0;
-  FirstOrderGraph fog = buildFirstOrderGraph(c, params.graph, threads, stop, second_order_budget);
+  FirstOrderRows fog = firstOrderRows(c, params.graph, threads, stop, second_order_budget);
   result.counters.graph_nodes = fog.reduced ? fog.reduced_to : fog.sampled ? fog.sampled_to : c.size();
-  result.counters.first_order_edges = fog.graph.numEdges();
+  result.counters.first_order_edges = fog.rows.numEdges();
   if (fog.sampled) {
     result.graph_reduced = true;
     result.warnings.push_back(std::to_string(c.size()) +
@@ -201,19 +201,19 @@ CompatibilityGraph firstOrderStage(const CorrespondenceSet& c, const MacParams& 
         std::to_string(fog.second_order_kept_nodes) + " correspondences of highest degree");
   }
   result.times.graph_ms = millisecondsSince(start);
-  return std::move(fog.graph);
+  return fog;
 }
 
 // Stage 2: the second-order weights (their budget came with the first-order graph), then the pruning of a
 // dense graph's weak edges.
-CompatibilityGraph secondOrderStage(CompatibilityGraph graph, const MacParams& params, int threads,
+CompatibilityGraph secondOrderStage(const FirstOrderRows& fog, const MacParams& params, int threads,
                                     const StopFlag* stop, MacResult& result) {
   const auto start = Clock::now();
   BoundedGraph pruned;
   if (params.graph.second_order) {
-    pruned = prunedSecondOrderGraph(graph, params.graph.dense_mean_degree, threads, stop).pruned;
+    pruned = prunedSecondOrderGraph(fog.rows, params.graph.dense_mean_degree, threads, stop).pruned;
   } else {
-    pruned = pruneDenseGraph(std::move(graph), params.graph.dense_mean_degree);
+    pruned = pruneDenseGraph(graphOfRows(fog.rows, threads), params.graph.dense_mean_degree);
   }
   result.counters.pruned_weak_edges = pruned.removed_edges;
   result.counters.graph_edges = pruned.graph.numEdges();
@@ -265,9 +265,12 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
   const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
   if (stopped(stop, result, "the start")) return;
 
-  CompatibilityGraph graph = firstOrderStage(c, params, threads, stop, result);
-  if (stopped(stop, result, "the compatibility graph")) return;
-  graph = secondOrderStage(std::move(graph), params, threads, stop, result);
+  CompatibilityGraph graph;
+  {
+    const FirstOrderRows fog = firstOrderStage(c, params, threads, stop, result);
+    if (stopped(stop, result, "the compatibility graph")) return;
+    graph = secondOrderStage(fog, params, threads, stop, result);  // the pass's buffers go after it
+  }
   if (stopped(stop, result, "the second-order graph")) return;
   if (graph.numEdges() == 0) {
     fail(result, RegistrationStatus::kEmptyGraph,

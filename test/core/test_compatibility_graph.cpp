@@ -185,7 +185,7 @@ void expectSameGraph(const CompatibilityGraph& a, const CompatibilityGraph& b, c
 // though the counted one is cut before it is built.
 TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
   const CompatibilityGraph sparse = randomGraphWithWeightsFrom(1500, 0.01, 0.99f, 2);  // mean degree ~15
-  const SecondOrderOutcome exact = prunedSecondOrderGraph(sparse, 50.0, 2);
+  const SecondOrderOutcome exact = prunedSecondOrderGraph(upperRowsOf(sparse), 50.0, 2);
   EXPECT_FALSE(exact.counted);
   EXPECT_FALSE(exact.pruned.reduced);
   expectSameGraph(exact.pruned.graph, buildSecondOrderGraph(sparse, 1), "sparse");
@@ -193,7 +193,7 @@ TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
   for (const double density : {0.05, 0.1, 0.3}) {
     const std::string where = "density " + std::to_string(density);
     const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, density, 0.99f, 2);  // degree 75-450
-    const SecondOrderOutcome counted = prunedSecondOrderGraph(dense, 50.0, 2);
+    const SecondOrderOutcome counted = prunedSecondOrderGraph(upperRowsOf(dense), 50.0, 2);
     const BoundedGraph afterwards = pruneDenseGraph(buildCountedSecondOrderGraph(dense, 1), 50.0);
     EXPECT_TRUE(counted.counted) << where;
     ASSERT_TRUE(afterwards.reduced) << where;
@@ -203,7 +203,7 @@ TEST(SecondOrderGraph, CountedOnlyAboveTheDenseMeanDegreeAndCutAsAfterwards) {
     expectSameGraph(counted.pruned.graph, afterwards.graph, where);
   }
   const CompatibilityGraph dense = randomGraphWithWeightsFrom(1500, 0.1, 0.99f, 2);
-  const SecondOrderOutcome off = prunedSecondOrderGraph(dense, 0.0, 2);
+  const SecondOrderOutcome off = prunedSecondOrderGraph(upperRowsOf(dense), 0.0, 2);
   EXPECT_FALSE(off.counted);
   EXPECT_FALSE(off.pruned.reduced);
   expectSameGraph(off.pruned.graph, buildSecondOrderGraph(dense, 1), "dense_mean_degree 0");
@@ -217,9 +217,10 @@ TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
     std::vector<char> keep(1200, 1);
     for (int i = 0; i < 1200; i += 11) keep[i] = 0;
     fog = keepNodes(fog, keep);
-    const EdgeSums common = countedCommonSums(fog, 1);
+    const UpperRows rows = upperRowsOf(fog);
+    const EdgeSums common = countedCommonSums(rows, 1);
     ASSERT_GT(std::count(common.begin(), common.end(), 0.0f), 0);
-    const CompatibilityGraph all = triangleEdgesFromSums(fog, common, 0.0f, 1);
+    const CompatibilityGraph all = triangleEdgesFromSums(rows, common, 0.0f, 1);
     const std::string where = "density " + std::to_string(density);
     expectValidGraph(all);
     ASSERT_GT(all.numEdges(), 100u) << where;
@@ -228,10 +229,10 @@ TEST(SecondOrderGraph, GraphAndCutOfTheSumsAreTheSameOnAnyThreadCount) {
     ASSERT_LT(heavy.numEdges(), all.numEdges()) << where;
     for (const int threads : {1, 2, 3}) {
       const std::string with = where + ", " + std::to_string(threads) + " threads";
-      expectSameGraph(triangleEdgesFromSums(fog, common, 0.0f, threads), all, with);
-      expectSameGraph(triangleEdgesFromSums(fog, common, cut, threads), heavy, with);
+      expectSameGraph(triangleEdgesFromSums(rows, common, 0.0f, threads), all, with);
+      expectSameGraph(triangleEdgesFromSums(rows, common, cut, threads), heavy, with);
       std::size_t edges = 0;
-      EXPECT_EQ(otsuThresholdOfSums(fog, common, edges, threads), cut) << with;
+      EXPECT_EQ(otsuThresholdOfSums(rows, common, edges, threads), cut) << with;
       EXPECT_EQ(edges, all.numEdges()) << with;
     }
   }
@@ -247,31 +248,45 @@ void leaveNaNsOnTheHeap(std::size_t floats) {
 }
 
 // The counted sums are written in full on the threads (their buffer starts uninitialised): the same sums
-// bit for bit on 1-3 threads, 0 at every lower entry, and all 0 when the stop flag is up from the start.
+// bit for bit on 1-3 threads, one for each edge, and all 0 when the stop flag is up from the start.
 TEST(SecondOrderGraph, CountedSumsAreWrittenInFullOnAnyThreadCount) {
   const CompatibilityGraph fog = randomGraphWithWeightsFrom(900, 0.1, 0.99f, 5);
-  leaveNaNsOnTheHeap(fog.neighbours.size());
-  const EdgeSums one = countedCommonSums(fog, 1);
-  ASSERT_EQ(one.size(), fog.neighbours.size());
-  std::size_t positive = 0;
-  for (int i = 0; i < fog.num_nodes; ++i) {
-    for (auto p = fog.offsets[i]; p < fog.offsets[i + 1]; ++p) {
-      if (fog.neighbours[p] < i) {
-        EXPECT_EQ(one[p], 0.0f) << "lower entry " << p;
-      }
-      positive += one[p] > 0.0f;
-    }
-  }
-  EXPECT_GT(positive, fog.numEdges() / 2);
+  const UpperRows rows = upperRowsOf(fog);
+  leaveNaNsOnTheHeap(fog.numEdges());
+  const EdgeSums one = countedCommonSums(rows, 1);
+  ASSERT_EQ(one.size(), fog.numEdges());
+  const auto positive = std::count_if(one.begin(), one.end(), [](float sum) { return sum > 0.0f; });
+  EXPECT_GT(positive, static_cast<long>(fog.numEdges() / 2));
   for (const int threads : {2, 3}) {
-    leaveNaNsOnTheHeap(fog.neighbours.size());
-    const EdgeSums many = countedCommonSums(fog, threads);
+    leaveNaNsOnTheHeap(fog.numEdges());
+    const EdgeSums many = countedCommonSums(rows, threads);
     EXPECT_TRUE(std::equal(one.begin(), one.end(), many.begin(), many.end())) << threads << " threads";
   }
   const StopFlag stop{true};
-  leaveNaNsOnTheHeap(fog.neighbours.size());
-  const EdgeSums stopped = countedCommonSums(fog, 2, &stop);
+  leaveNaNsOnTheHeap(fog.numEdges());
+  const EdgeSums stopped = countedCommonSums(rows, 2, &stop);
   EXPECT_EQ(std::count(stopped.begin(), stopped.end(), 0.0f), static_cast<long>(stopped.size()));
+}
+
+// A graph's upper rows are its lists' tails, and the lists built from them on any thread count are the
+// graph's own, bit for bit; its second-order work is the same counted from either.
+TEST(CompatibilityGraph, ListsOfTheUpperRowsAreTheGraph) {
+  CompatibilityGraph g = randomGraphWithWeightsFrom(700, 0.05, 0.9f, 4);
+  std::vector<char> keep(700, 1);
+  for (int i = 0; i < 700; i += 9) keep[i] = 0;  // isolated nodes
+  g = keepNodes(g, keep);
+  const UpperRows rows = upperRowsOf(g);
+  ASSERT_EQ(rows.numNodes(), g.num_nodes);
+  EXPECT_EQ(rows.numEdges(), g.numEdges());
+  for (int i = 0; i < g.num_nodes; ++i) {
+    ASSERT_EQ(rows.degree[i], g.degree(i));
+    for (int c = 0; c < rows.count[i]; ++c) {
+      ASSERT_GT(rows.to[i][c], i);
+      ASSERT_EQ(rows.weight[i][c], g.weight(i, rows.to[i][c]));
+    }
+  }
+  EXPECT_EQ(secondOrderWork(rows), secondOrderWork(g));
+  for (const int threads : {1, 2, 3}) expectSameGraph(graphOfRows(rows, threads), g, std::to_string(threads));
 }
 
 TEST(CompatibilityGraph, KeepNodes) {

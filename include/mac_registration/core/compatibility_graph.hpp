@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "mac_registration/core/correspondence_set.hpp"
@@ -33,10 +34,33 @@ struct UpperEdge {
 };
 CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vector<UpperEdge>>& rows);
 
-// Outcome of building the first-order graph, with what the bounds did. Nodes of the graph are all the
-// correspondences; those a bound left out are isolated.
-struct FirstOrderGraph {
-  CompatibilityGraph graph;
+// A graph as the rows of its upper edges: row i holds node i's neighbours j > i, ascending, with their
+// weights; degree[i] counts all of i's neighbours (its row and the rows that name it). The rows point into
+// buffers owned elsewhere: the first-order pass's (FirstOrderRows), or a graph's lists (upperRowsOf). The
+// dense path of the second-order weights reads the pass's rows as they are: the lists of a dense chance
+// graph (both directions of a million edges) cost as much as the pair test that found its edges.
+struct UpperRows {
+  std::vector<const int*> to;
+  std::vector<const float*> weight;
+  std::vector<int> count;
+  std::vector<std::int64_t> degree;
+
+  int numNodes() const { return static_cast<int>(count.size()); }
+  std::size_t numEdges() const;
+  // Where each row starts among all the rows' entries laid end to end (numNodes() + 1 values): the index
+  // of a value kept per edge, as EdgeSums.
+  std::vector<std::int64_t> rowStarts() const;
+};
+
+// The upper rows of a graph, pointing into its lists: valid while the graph lives, unchanged.
+UpperRows upperRowsOf(const CompatibilityGraph& graph);
+
+// The lists of the graph of `rows` (graphFromUpperRows of the same rows, bit for bit), on num_threads.
+CompatibilityGraph graphOfRows(const UpperRows& rows, int num_threads = 1);
+
+// What the bounds of the first-order graph did. Nodes of the graph are all the correspondences; those a
+// bound left out are isolated.
+struct FirstOrderBounds {
   // More than max_correspondences were given: the pairs were tested among an evenly spaced subset of
   // sampled_to of them.
   bool sampled = false;
@@ -47,13 +71,24 @@ struct FirstOrderGraph {
   // degree (the true degree, from the counts of the full pass).
   bool reduced = false;
   std::size_t reduced_to = 0;
-  // The second_order_budget of buildFirstOrderGraph acted: the graph holds only the edges among the
+  // The second_order_budget of the builder acted: the graph holds only the edges among the
   // second_order_kept_nodes correspondences boundSecondOrderWork would have kept.
   bool second_order_bounded = false;
   std::size_t second_order_kept_nodes = 0;
   std::size_t second_order_removed_edges = 0;
   // The stop flag ended the pass: the graph is incomplete and not to be used.
   bool cancelled = false;
+};
+
+// The first-order graph as the pass left it: its upper rows, in buffers this owns.
+struct FirstOrderRows : FirstOrderBounds {
+  UpperRows rows;
+  std::shared_ptr<const void> buffers;
+};
+
+// The first-order graph as lists.
+struct FirstOrderGraph : FirstOrderBounds {
+  CompatibilityGraph graph;
 };
 
 // First-order compatibility graph (FOG, paper Eq. 1-2): an edge where the score is >= t_cmp, weighted by
@@ -63,6 +98,11 @@ struct FirstOrderGraph {
 // second_order_budget [multiply-adds], 0 = none: the graph boundSecondOrderWork(graph, budget) would make
 // of the first-order graph, bit for bit, chosen from the pass's rows before any list is built (a dense
 // consensus is millions of edges, most of which that bound would drop), with second_order_bounded set.
+FirstOrderRows firstOrderRows(const CorrespondenceSet& correspondences, const GraphParams& params,
+                              int num_threads, const StopFlag* stop = nullptr,
+                              double second_order_budget = 0.0);
+
+// firstOrderRows with its graph's lists built.
 FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
                                      int num_threads, const StopFlag* stop = nullptr,
                                      double second_order_budget = 0.0);
@@ -82,30 +122,32 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, 
 CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
                                                 const StopFlag* stop = nullptr);
 
-// A value for each entry of a graph's lists, in their order.
+// A value for each upper edge, in the order of the rows laid end to end (UpperRows::rowStarts).
 using EdgeSums = UninitialisedVector<float>;
 
 // The estimate of buildCountedSecondOrderGraph before its graph is built: sum_k S_ik S_jk of every edge
-// i < j at its position in i's first-order list (0 for an edge in no triangle, and at the lower ends).
-EdgeSums countedCommonSums(const CompatibilityGraph& first_order, int num_threads,
-                           const StopFlag* stop = nullptr);
+// of the rows (0 for an edge in no triangle).
+EdgeSums countedCommonSums(const UpperRows& first_order, int num_threads, const StopFlag* stop = nullptr);
 
 // The graph of those sums (the edges with a positive sum, weighted S_ij * sum) with only its edges of
 // weight >= min_weight: buildCountedSecondOrderGraph's graph for 0, and withoutWeakEdges of it for
 // another weight, bit for bit, without building it first. The same graph whatever num_threads.
-CompatibilityGraph triangleEdgesFromSums(const CompatibilityGraph& first_order, const EdgeSums& common,
+CompatibilityGraph triangleEdgesFromSums(const UpperRows& first_order, const EdgeSums& common,
                                          float min_weight, int num_threads = 1);
 
 // otsuEdgeThreshold of triangleEdgesFromSums(first_order, common, 0) and that graph's edge count, without
 // building it. The same whatever num_threads.
-float otsuThresholdOfSums(const CompatibilityGraph& first_order, const EdgeSums& common, std::size_t& edges,
+float otsuThresholdOfSums(const UpperRows& first_order, const EdgeSums& common, std::size_t& edges,
                           int num_threads = 1);
 
-// Whether the bitsets of buildCountedSecondOrderGraph on this graph stay within 64 MB.
-bool neighbourCountsFit(const CompatibilityGraph& graph);
+// Whether the bitsets of countedCommonSums on this graph stay within 64 MB.
+bool neighbourCountsFit(const UpperRows& first_order);
 
-// 64-bit words buildCountedSecondOrderGraph would AND and count on this graph.
-double countedSecondOrderWork(const CompatibilityGraph& graph);
+// 64-bit words countedCommonSums would AND and count on this graph.
+double countedSecondOrderWork(const UpperRows& first_order);
+
+// Multiply-adds buildSecondOrderGraph would spend on the graph of these rows.
+double secondOrderWork(const UpperRows& first_order);
 
 // Multiply-adds buildSecondOrderGraph would spend on this graph.
 double secondOrderWork(const CompatibilityGraph& graph);

@@ -50,7 +50,7 @@ struct SecondOrderOutcome {
 // ones, and is made before the graph of all the counted weights is built (the same graph, bit for bit,
 // as cutting it afterwards). Sparser graphs (real FPFH matches) keep the exact sums of
 // buildSecondOrderGraph. dense_mean_degree 0: exact sums, no cut.
-SecondOrderOutcome prunedSecondOrderGraph(const CompatibilityGraph& first_order, double dense_mean_degree,
+SecondOrderOutcome prunedSecondOrderGraph(const UpperRows& first_order, double dense_mean_degree,
                                           int num_threads, const StopFlag* stop = nullptr);
 
 // graph.dense_mean_degree: a graph with a higher mean degree loses its edges below Otsu's threshold of the
