@@ -47,6 +47,10 @@ __attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(cons
   }
 }
 
+// Entries past a row's end that its kernel may write: candidates and candidate_d2 have room for
+// n - i - 1 + kRowSlack, and what lies past the found ones is scratch.
+constexpr std::size_t kRowSlack = 16;
+
 // The pairs (i, j > i) of one row that pass the test d^2 <= max_d2, compacted: candidates[c] = j and
 // candidate_d2[c] = d^2 for the found ones, ascending in j; returns how many. `d2` is scratch of n floats.
 // Branch-free compaction: almost every pair fails the test, so a branch per pair mispredicts.
@@ -84,17 +88,23 @@ __attribute__((target("avx512f,popcnt"), optimize("fp-contract=off"))) int compa
   const __m512 tix = _mm512_set1_ps(tx[i]), tiy = _mm512_set1_ps(ty[i]), tiz = _mm512_set1_ps(tz[i]);
   const __m512 bound = _mm512_set1_ps(max_d2);
   const __m512i step = _mm512_set1_epi32(16);
-  __m512i index = _mm512_add_epi32(_mm512_set1_epi32(i + 1),
+  // The loads start on the 16-float boundary at or below i + 1 (the arrays are 64-byte aligned), with the
+  // pairs below i + 1 masked off: a load across two cache lines would cost two.
+  const int start = (i + 1) & ~15;
+  __m512i index = _mm512_add_epi32(_mm512_set1_epi32(start),
                                    _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
   int found = 0;
-  for (int j = i + 1; j < n; j += 16) {
-    const __mmask16 valid = n - j >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - j)) - 1u);
+  for (int j = start; j < n; j += 16) {
+    __mmask16 valid = n - j >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - j)) - 1u);
+    if (j <= i) valid &= __mmask16(~((1u << (i + 1 - j)) - 1u));
     const __m512 difference = _mm512_sub_ps(distances16(sx, sy, sz, j, valid, six, siy, siz),
                                             distances16(tx, ty, tz, j, valid, tix, tiy, tiz));
     const __m512 d2 = _mm512_mul_ps(difference, difference);
     const __mmask16 pass = _mm512_mask_cmp_ps_mask(valid, d2, bound, _CMP_LE_OQ);
-    _mm512_mask_compressstoreu_epi32(candidates + found, pass, index);
-    _mm512_mask_compressstoreu_ps(candidate_d2 + found, pass, d2);
+    // Compressed in registers and stored whole (16 entries, past the found ones too): a compressing store
+    // to memory costs several times more.
+    _mm512_storeu_si512(candidates + found, _mm512_maskz_compress_epi32(pass, index));
+    _mm512_storeu_ps(candidate_d2 + found, _mm512_maskz_compress_ps(pass, d2));
     found += __builtin_popcount(pass);
     index = _mm512_add_epi32(index, step);
   }
@@ -110,14 +120,15 @@ CompatibleInRow compatibleInRowForThisCpu() {
 
 // Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the
 // correspondences) so that float keeps millimetres even for map-sized coordinates; the loops over it
-// vectorize.
-struct PointsSoA {
-  std::vector<float> sx, sy, sz, tx, ty, tz;
+// vectorize. Each array starts on a cache line.
+class PointsSoA {
+ public:
+  float *sx = nullptr, *sy = nullptr, *sz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;
 
   PointsSoA(const CorrespondenceSet& c, const std::vector<int>& nodes) {
+    allocate(nodes.size());
     const Eigen::Vector3d s0 = c.source_points.rowwise().mean();
     const Eigen::Vector3d t0 = c.target_points.rowwise().mean();
-    resize(nodes.size());
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       const Eigen::Vector3d s = c.source_points.col(nodes[k]) - s0;
       const Eigen::Vector3d t = c.target_points.col(nodes[k]) - t0;
@@ -128,7 +139,7 @@ struct PointsSoA {
 
   // The points `subset` of `from`, the same floats: a pair tests the same in both.
   PointsSoA(const PointsSoA& from, const std::vector<int>& subset) {
-    resize(subset.size());
+    allocate(subset.size());
     for (std::size_t k = 0; k < subset.size(); ++k) {
       const int i = subset[k];
       sx[k] = from.sx[i], sy[k] = from.sy[i], sz[k] = from.sz[i];
@@ -136,20 +147,32 @@ struct PointsSoA {
     }
   }
 
-  int size() const { return static_cast<int>(sx.size()); }
+  PointsSoA(const PointsSoA&) = delete;  // the arrays point into storage_
+  PointsSoA& operator=(const PointsSoA&) = delete;
+
+  int size() const { return size_; }
 
   // The pairs (i, j > i) with d^2 <= max_d2: their j ascending in candidates, their d^2 in candidate_d2;
   // returns how many. `scratch` holds size() floats.
   int compatibleInRow(int i, float max_d2, float* scratch, int* candidates, float* candidate_d2) const {
     static const CompatibleInRow kernel = compatibleInRowForThisCpu();
-    return kernel(sx.data(), sy.data(), sz.data(), tx.data(), ty.data(), tz.data(), i, size(), max_d2,
-                  scratch, candidates, candidate_d2);
+    return kernel(sx, sy, sz, tx, ty, tz, i, size(), max_d2, scratch, candidates, candidate_d2);
   }
 
  private:
-  void resize(std::size_t n) {
-    for (auto* v : {&sx, &sy, &sz, &tx, &ty, &tz}) v->resize(n);
+  void allocate(std::size_t n) {
+    constexpr std::size_t kLineFloats = 16;
+    const std::size_t stride = (n + kLineFloats - 1) / kLineFloats * kLineFloats;
+    storage_.resize(6 * stride + kLineFloats - 1);
+    const auto address = reinterpret_cast<std::uintptr_t>(storage_.data());
+    float* first = storage_.data() + (kLineFloats - (address / 4) % kLineFloats) % kLineFloats;
+    float** arrays[] = {&sx, &sy, &sz, &tx, &ty, &tz};
+    for (std::size_t a = 0; a < 6; ++a) *arrays[a] = first + a * stride;
+    size_ = static_cast<int>(n);
   }
+
+  UninitialisedVector<float> storage_;
+  int size_ = 0;
 };
 
 // Rows written back to back, each whole in one chunk; chunks are allocated uninitialised and never moved,
@@ -200,7 +223,7 @@ PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std
   // freed, stay there for the next graph instead of being mapped afresh, page by page, each time.
   constexpr std::size_t kChunkEntries = std::size_t(1) << 14;
   PairPass pass;
-  for (int t = 0; t < num_threads; ++t) pass.chunks.emplace_back(std::max(kChunkEntries, std::size_t(n)));
+  for (int t = 0; t < num_threads; ++t) pass.chunks.emplace_back(std::max(kChunkEntries, n + kRowSlack));
   pass.row_to.assign(n, nullptr);
   pass.row_weight.assign(n, nullptr);
   pass.row_count.assign(n, 0);
@@ -216,7 +239,7 @@ PairPass compatiblePairs(const PointsSoA& points, const GraphParams& params, std
     for (int i = 0; i < n; ++i) {
       if (stopRequested(stop)) continue;
       // The kernel writes the found pairs straight into place, their d^2 where their weights go.
-      chunks.reserve(static_cast<std::size_t>(n - i - 1));
+      chunks.reserve(static_cast<std::size_t>(n - i - 1) + kRowSlack);
       int* const to = chunks.to();
       float* const weight = chunks.weight();
       const int found = points.compatibleInRow(i, max_d2, d2.data(), to, weight);
