@@ -152,6 +152,43 @@ TEST(CliqueSearch, EdgesInNoTriangleChangeNoClique) {
   }
 }
 
+// True twins (complete subgraphs, nodes joined to all of one) go to igraph as one vertex each: the cliques
+// are still the reference's, node for node, including a merged vertex that is a clique alone and one too
+// small to be reported; with a size cap nothing is merged and the cap still holds.
+TEST(CliqueSearch, MergedTwinsChangeNoClique) {
+  std::mt19937 rng(11);
+  std::vector<std::pair<int, int>> edges;
+  const auto complete = [&](std::vector<int> nodes) {
+    for (std::size_t a = 0; a < nodes.size(); ++a)
+      for (std::size_t b = a + 1; b < nodes.size(); ++b) edges.push_back({nodes[a], nodes[b]});
+  };
+  std::vector<int> core(14);
+  std::iota(core.begin(), core.end(), 3);  // 3..16, twins but for what joins some of them below
+  complete(core);
+  for (int v = 0; v < 3; ++v)  // three nodes each joined to the first ten of the core
+    for (int k = 0; k < 10; ++k) edges.push_back({v, core[k]});
+  complete({20, 21, 22, 23, 24});  // a clique alone
+  complete({30, 31});              // an edge alone
+  std::bernoulli_distribution edge(0.2);
+  for (int a = 40; a < 60; ++a)
+    for (int b = a + 1; b < 60; ++b)
+      if (edge(rng)) edges.push_back({a, b});
+  for (int a = 40; a < 45; ++a) edges.push_back({16, a});  // the core's last node gets a few more
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  const CompatibilityGraph graph = graphFromEdges(60, edges);
+  for (const int min_size : {3, 4, 6, 12}) {
+    CliqueSearchParams params;
+    params.min_clique_size = min_size;
+    const auto found = search(graph, params);
+    EXPECT_EQ(found.cliques, maximalCliquesByHand(graph, std::size_t(min_size))) << "min size " << min_size;
+    EXPECT_EQ(found.stats.cliques, found.cliques.size());
+  }
+  CliqueSearchParams capped;
+  capped.max_clique_size = 5;
+  for (const Clique& clique : search(graph, capped).cliques) EXPECT_LE(clique.size(), 5u);
+}
+
 TEST(CliqueSearch, IsolatedNodesKeepTheirIdsAndCostNothing) {
   // A triangle among 300 000 nodes, the shape of a graph reduced from a large correspondence set. Handed
   // to igraph whole, its enumeration would be quadratic in the node count (over 10 s).
