@@ -109,13 +109,23 @@ double logPoissonTail(std::size_t k, double lambda) {
 
 // The finite targets sorted by their cell of a tau grid, so that the ones within tau of a point lie in its
 // 27 cells. The cell key packs x, y, z (21 bits each, two's complement wrapped) with z lowest, so that the
-// three cells of one (x, y) column around a point are one run of keys, found by one binary search.
+// three cells of one (x, y) column around a point are one run of keys. Each column's keys are found by one
+// probe of a hash table of the columns, then a search within the column: a search over all the keys would
+// take a dozen dependent cache misses for each of the nine columns of every query.
 struct TargetGrid {
   static constexpr std::uint64_t kFieldMask = 0x1fffff;
+  static constexpr std::uint64_t kNoColumn = ~std::uint64_t(0);  // no key has its top bit
+
+  struct ColumnRun {
+    std::uint64_t column = kNoColumn;   // the key of the column's z = 0 cell
+    std::uint32_t first = 0, last = 0;  // its keys
+  };
 
   double tau;
   std::vector<std::uint64_t> keys;  // ascending
   Eigen::Matrix3Xd points;          // the targets in the order of keys
+  std::vector<ColumnRun> columns;   // open addressing, a power of two at least twice the columns
+  std::uint64_t slot_mask = 0;
 
   TargetGrid(const Eigen::Matrix3Xd& targets, double cell_size) : tau(cell_size) {
     std::vector<std::pair<std::uint64_t, Eigen::Index>> cells;
@@ -130,6 +140,7 @@ struct TargetGrid {
       keys[k] = cells[k].first;
       points.col(Eigen::Index(k)) = targets.col(cells[k].second);
     }
+    indexColumns();
   }
 
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
@@ -151,18 +162,53 @@ struct TargetGrid {
   void forEachInColumn(const Eigen::Vector3i& cell, int dx, int dy, Visit visit) const {
     const std::uint64_t first = key(cell, dx, dy, -1);
     const std::uint64_t column = first & ~kFieldMask;
+    const ColumnRun* run = find(column);
+    if (run == nullptr) return;
     if ((first & kFieldMask) + 2 <= kFieldMask) {
-      forEachInKeys(first, first + 2, visit);
+      forEachInKeys(*run, first, first + 2, visit);
     } else {
-      forEachInKeys(first, column | kFieldMask, visit);
-      forEachInKeys(column, key(cell, dx, dy, 1), visit);
+      forEachInKeys(*run, first, column | kFieldMask, visit);
+      forEachInKeys(*run, column, key(cell, dx, dy, 1), visit);
+    }
+  }
+
+ private:
+  static std::uint64_t slotOf(std::uint64_t column) {  // splitmix64's finaliser
+    column = (column ^ (column >> 30)) * 0xBF58476D1CE4E5B9ull;
+    column = (column ^ (column >> 27)) * 0x94D049BB133111EBull;
+    return column ^ (column >> 31);
+  }
+
+  void indexColumns() {
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < keys.size(); ++k) count += k == 0 || (keys[k] ^ keys[k - 1]) > kFieldMask;
+    std::size_t slots = 1;
+    while (slots < 2 * count) slots *= 2;
+    columns.assign(slots, ColumnRun());
+    slot_mask = slots - 1;
+    for (std::size_t k = 0; k < keys.size();) {
+      const std::uint64_t column = keys[k] & ~kFieldMask;
+      std::size_t end = k;
+      while (end < keys.size() && (keys[end] & ~kFieldMask) == column) ++end;
+      std::uint64_t slot = slotOf(column) & slot_mask;
+      while (columns[slot].column != kNoColumn) slot = (slot + 1) & slot_mask;
+      columns[slot] = {column, std::uint32_t(k), std::uint32_t(end)};
+      k = end;
+    }
+  }
+
+  const ColumnRun* find(std::uint64_t column) const {
+    if (columns.empty()) return nullptr;
+    for (std::uint64_t slot = slotOf(column) & slot_mask;; slot = (slot + 1) & slot_mask) {
+      if (columns[slot].column == column) return &columns[slot];
+      if (columns[slot].column == kNoColumn) return nullptr;
     }
   }
 
   template <typename Visit>
-  void forEachInKeys(std::uint64_t lowest, std::uint64_t highest, Visit visit) const {
-    auto it = std::lower_bound(keys.begin(), keys.end(), lowest);
-    for (; it != keys.end() && *it <= highest; ++it) visit(Eigen::Index(it - keys.begin()));
+  void forEachInKeys(const ColumnRun& run, std::uint64_t lowest, std::uint64_t highest, Visit visit) const {
+    auto it = std::lower_bound(keys.begin() + run.first, keys.begin() + run.last, lowest);
+    for (; it != keys.begin() + run.last && *it <= highest; ++it) visit(Eigen::Index(it - keys.begin()));
   }
 };
 

@@ -334,6 +334,33 @@ TEST(ChanceLevel, ChanceInliersCountsPointsOnCellBordersAsThePairwiseTestDoes) {
   EXPECT_EQ(chanceInliers(c, T, tau), double(pairs) / double(n));
 }
 
+TEST(ChanceLevel, ChanceInliersFindsEveryColumnOfAWideSparseScene) {
+  // Thousands of occupied columns, most with one target, some with a stack of them, and a cluster that
+  // shares its columns with many queries: every pair within tau is counted, as by the pairwise test.
+  const double tau = 0.3;
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> wide(-40.0, 40.0), near(-0.5, 0.5), height(-3.0, 3.0);
+  const Eigen::Index n = 3000;
+  CorrespondenceSet c;
+  c.source_points.resize(3, n);
+  c.target_points.resize(3, n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const bool clustered = k % 5 == 0;
+    c.target_points.col(k) = clustered ? Eigen::Vector3d(near(rng), near(rng), height(rng))
+                                       : Eigen::Vector3d(wide(rng), wide(rng), height(rng));
+    c.source_points.col(k) = k % 3 == 0 ? Eigen::Vector3d(near(rng), near(rng), height(rng))
+                                        : Eigen::Vector3d(wide(rng), wide(rng), height(rng));
+  }
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(0.05, -0.02, 0.1);
+  std::int64_t pairs = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j)
+      pairs += (T * c.source_points.col(i) - c.target_points.col(j)).norm() < tau;
+  EXPECT_GT(pairs, 2 * n);  // the test means something
+  EXPECT_EQ(chanceInliers(c, T, tau, 2), double(pairs) / double(n));
+}
+
 TEST(ChanceLevel, ChanceInliersIsTheSameWhateverTheThreadCount) {
   const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(3000, 0.1, 8));
   const double tau = 0.05;
