@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <initializer_list>
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
@@ -46,7 +47,7 @@ std::size_t wordsPerRow(std::size_t active) { return (active + 511) / 512 * 8; }
 
 // Transposes a 64 x 64 bit block in place, bit c of a[r] being entry (r, c): swaps its off-diagonal
 // halves, then the quarters' within each half, down to single bits.
-void transposeBits64(std::uint64_t a[64]) {
+void transposeBitsPortable(std::uint64_t a[64]) {
   std::uint64_t mask = 0x00000000FFFFFFFFull;
   for (int j = 32; j != 0; j >>= 1, mask ^= mask << j) {
     for (int k = 0; k < 64; k = ((k | j) + 1) & ~j) {
@@ -57,10 +58,63 @@ void transposeBits64(std::uint64_t a[64]) {
   }
 }
 
+// GCC 12 warns of the undefined vectors its AVX-512 shift and blend intrinsics start from (a false
+// positive, GCC bug 105593).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+// A stage of that swap between rows k (in x) and k + J, in a register J / 8 further on.
+template <int J>
+__attribute__((target("avx512f"), always_inline)) inline void swapAcross(__m512i& x, __m512i& y,
+                                                                         std::uint64_t mask) {
+  const __m512i t = _mm512_and_si512(_mm512_xor_si512(_mm512_srli_epi64(x, J), y), _mm512_set1_epi64(mask));
+  y = _mm512_xor_si512(y, t);
+  x = _mm512_xor_si512(x, _mm512_slli_epi64(t, J));
+}
+
+// A stage between the lanes k and k ^ J of one register (`partner` permutes them; `upper` marks the k + J).
+template <int J>
+__attribute__((target("avx512f"), always_inline)) inline void swapWithin(__m512i& x, __m512i partner,
+                                                                         __mmask8 upper, std::uint64_t mask) {
+  const __m512i t =
+      _mm512_and_si512(_mm512_xor_si512(_mm512_srli_epi64(x, J), _mm512_permutexvar_epi64(partner, x)),
+                       _mm512_set1_epi64(mask));
+  x = _mm512_xor_si512(
+      x, _mm512_mask_blend_epi64(upper, _mm512_slli_epi64(t, J), _mm512_permutexvar_epi64(partner, t)));
+}
+
+// The same swaps on eight rows a register, all six stages in registers: a tenth of the portable time.
+__attribute__((target("avx512f"))) void transposeBitsAvx512(std::uint64_t a[64]) {
+  __m512i r[8];
+  for (int m = 0; m < 8; ++m) r[m] = _mm512_loadu_si512(a + 8 * m);
+  for (int m = 0; m < 4; ++m) swapAcross<32>(r[m], r[m + 4], 0x00000000FFFFFFFFull);
+  for (const int m : {0, 1, 4, 5}) swapAcross<16>(r[m], r[m + 2], 0x0000FFFF0000FFFFull);
+  for (const int m : {0, 2, 4, 6}) swapAcross<8>(r[m], r[m + 1], 0x00FF00FF00FF00FFull);
+  const __m512i partner4 = _mm512_setr_epi64(4, 5, 6, 7, 0, 1, 2, 3);
+  const __m512i partner2 = _mm512_setr_epi64(2, 3, 0, 1, 6, 7, 4, 5);
+  const __m512i partner1 = _mm512_setr_epi64(1, 0, 3, 2, 5, 4, 7, 6);
+  for (int m = 0; m < 8; ++m) {
+    swapWithin<4>(r[m], partner4, 0xF0, 0x0F0F0F0F0F0F0F0Full);
+    swapWithin<2>(r[m], partner2, 0xCC, 0x3333333333333333ull);
+    swapWithin<1>(r[m], partner1, 0xAA, 0x5555555555555555ull);
+  }
+  for (int m = 0; m < 8; ++m) _mm512_storeu_si512(a + 8 * m, r[m]);
+}
+
+#pragma GCC diagnostic pop
+
+using TransposeBits = void (*)(std::uint64_t*);
+
+TransposeBits transposeBitsForThisCpu() {
+  return __builtin_cpu_supports("avx512f") ? transposeBitsAvx512 : transposeBitsPortable;
+}
+
 // Gives every bit row its lower bits, the transpose of the upper ones that its own rows set: block
 // (r, c) of 64 x 64 bits, above the diagonal, is ORed transposed into block (c, r). Each thread writes the
 // lower blocks of its own block rows and reads only upper blocks, which no thread writes here.
 void mirrorUpperBits(NeighbourBits& bits, int active, int num_threads) {
+  static const TransposeBits transposeBits = transposeBitsForThisCpu();
   const int blocks = (active + 63) / 64;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(num_threads)
   for (int c = 0; c < blocks; ++c) {
@@ -69,7 +123,7 @@ void mirrorUpperBits(NeighbourBits& bits, int active, int num_threads) {
       const int rows_r = std::min(64, active - 64 * r);
       std::uint64_t block[64] = {};
       for (int k = 0; k < rows_r; ++k) block[k] = bits.word(64 * r + k, c);
-      transposeBits64(block);
+      transposeBits(block);
       for (int k = 0; k < rows_c; ++k) bits.word(64 * c + k, r) |= block[k];
     }
   }
