@@ -287,17 +287,28 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
   evaluator.squaredResiduals(best, squared);
   std::vector<char> explained(squared.size());
   for (std::size_t i = 0; i < squared.size(); ++i) explained[i] = residualBelowTau(squared[i]);
+  // The first kRivalsExamined hypotheses far from the best, by score; their exclusive scores on the
+  // threads, each summed in correspondence order by one thread.
   std::vector<RivalCandidate> rivals;
   for (const int h : order) {
-    if (int(rivals.size()) >= kRivalsExamined || stopRequested(stop)) break;
-    if (rmsDisplacement(hypotheses[h].T_target_source, best, moments) <= distinct) continue;
-    evaluator.squaredResiduals(hypotheses[h].T_target_source, squared);
-    double exclusive = 0.0;
-    for (std::size_t i = 0; i < squared.size(); ++i) {
-      if (!explained[i] && squared[i] < near_tau2)
-        exclusive += closeness(std::sqrt(squared[i]), tau, params.evaluation.metric);
+    if (int(rivals.size()) >= kRivalsExamined) break;
+    if (rmsDisplacement(hypotheses[h].T_target_source, best, moments) > distinct) rivals.push_back({h, 0.0});
+  }
+  const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
+#pragma omp parallel num_threads(threads) if (rivals.size() > 1)
+  {
+    std::vector<double> rival_squared;
+#pragma omp for schedule(dynamic, 1)
+    for (int r = 0; r < int(rivals.size()); ++r) {
+      if (stopRequested(stop)) continue;
+      evaluator.squaredResiduals(hypotheses[rivals[r].hypothesis].T_target_source, rival_squared);
+      double exclusive = 0.0;
+      for (std::size_t i = 0; i < rival_squared.size(); ++i) {
+        if (!explained[i] && rival_squared[i] < near_tau2)
+          exclusive += closeness(std::sqrt(rival_squared[i]), tau, params.evaluation.metric);
+      }
+      rivals[r].exclusive_score = exclusive;
     }
-    rivals.push_back({h, exclusive});
   }
   std::stable_sort(rivals.begin(), rivals.end(), [](const RivalCandidate& a, const RivalCandidate& b) {
     return a.exclusive_score > b.exclusive_score;
@@ -327,7 +338,6 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
   // alternatives. They are refined a batch at a time on the threads: the next rivals still far from
   // every pose kept (kept only grows, so one near it now stays near it), then accepted in order as one
   // at a time would, re-checked against what the batch added. The same alternatives on any thread count.
-  const int threads = params.num_threads > 0 ? params.num_threads : omp_get_max_threads();
   std::vector<int> batch;
   std::vector<RefinementOutcome> refined;
   for (std::size_t next = 0; next < rivals.size();) {

@@ -399,9 +399,9 @@ CorrespondenceSet shuffledTargets(CorrespondenceSet c, unsigned seed) {
   return c;
 }
 
-// The alternatives are refined a batch at a time on the threads and accepted in order: the same list,
-// bit for bit, on 1-3 threads, on the shipped set and on a shuffled one (whose chance rivals often refine
-// into a pose already listed).
+// The rivals' exclusive scores are summed on the threads, and the alternatives refined a batch at a time
+// on them and accepted in order: the same rival ratio and list, bit for bit, on 1-3 threads, on the
+// shipped set and on a shuffled one (whose chance rivals often refine into a pose already listed).
 TEST(RivalRatio, AlternativesAreTheSameWhateverTheThreadCount) {
   for (const bool shuffled : {false, true}) {
     const CorrespondenceSet c = shuffled ? shuffledTargets(shippedSet(), 7) : shippedSet();
@@ -419,6 +419,7 @@ TEST(RivalRatio, AlternativesAreTheSameWhateverTheThreadCount) {
         EXPECT_EQ(many.alternatives[k].score, one.alternatives[k].score);
         EXPECT_EQ(many.alternatives[k].inliers, one.alternatives[k].inliers);
       }
+      EXPECT_EQ(many.verification.rival_ratio, one.verification.rival_ratio) << threads << " threads";
       EXPECT_EQ(many.confidence, one.confidence) << threads << " threads";
     }
   }
