@@ -129,8 +129,9 @@ void mirrorUpperBits(NeighbourBits& bits, int active, int num_threads) {
   }
 }
 
-// Weights as integers of kWeightScale: sums of them are exact, and so the same in any order, for weights
-// down to 2^-16 (t_cmp is the lightest), and within 2^-40 of each weight below that.
+// Weights as integers of kWeightScale: a node's sum of them is exact, and so the same in any order, for
+// weights of 2^-16 or more (every first-order weight is at least t_cmp) and degrees below 2^23; a lighter
+// weight is rounded to 2^-40.
 constexpr double kWeightScale = 1099511627776.0;  // 2^40
 
 std::int64_t fixedPointWeight(float w) { return static_cast<std::int64_t>(double(w) * kWeightScale + 0.5); }
