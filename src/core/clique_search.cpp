@@ -85,7 +85,9 @@ igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSea
   state.members = std::move(search.members);
   state.min_size = static_cast<std::size_t>(params.min_clique_size);
   igraph_vector_int_t edges;
-  igraph_vector_int_view(&edges, search.edges.data(), igraph_integer_t(search.edges.size()));
+  static const igraph_integer_t kNoEdges = 0;  // a view needs storage even for no edges
+  igraph_vector_int_view(&edges, search.edges.empty() ? &kNoEdges : search.edges.data(),
+                         igraph_integer_t(search.edges.size()));
   igraph_t ig;
   const auto vertices = igraph_integer_t(state.member_begin.size()) - 1;
   const igraph_error_t created = igraph_create(&ig, &edges, vertices, IGRAPH_UNDIRECTED);
