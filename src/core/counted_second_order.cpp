@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/cpu_kernels.hpp"
 
 namespace mac_registration {
 namespace {
@@ -107,7 +108,7 @@ __attribute__((target("avx512f"))) void transposeBitsAvx512(std::uint64_t a[64])
 using TransposeBits = void (*)(std::uint64_t*);
 
 TransposeBits transposeBitsForThisCpu() {
-  return __builtin_cpu_supports("avx512f") ? transposeBitsAvx512 : transposeBitsPortable;
+  return avx512Kernels() ? transposeBitsAvx512 : transposeBitsPortable;
 }
 
 // Gives every bit row its lower bits, the transpose of the upper ones that its own rows set: block
@@ -237,14 +238,12 @@ void commonCounts4Portable(const std::uint64_t* a, const std::uint64_t* const b[
 using CommonCount = std::int64_t (*)(const std::uint64_t*, const std::uint64_t*, std::size_t);
 using CommonCounts4 = void (*)(const std::uint64_t*, const std::uint64_t* const*, std::size_t, std::int64_t*);
 
-bool hasAvx512Popcount() {
-  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vpopcntdq");
+CommonCount commonCountForThisCpu() {
+  return avx512PopcountKernels() ? commonCountAvx512 : commonCountPortable;
 }
 
-CommonCount commonCountForThisCpu() { return hasAvx512Popcount() ? commonCountAvx512 : commonCountPortable; }
-
 CommonCounts4 commonCounts4ForThisCpu() {
-  return hasAvx512Popcount() ? commonCounts4Avx512 : commonCounts4Portable;
+  return avx512PopcountKernels() ? commonCounts4Avx512 : commonCounts4Portable;
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include "graph_assembly.hpp"
 #include "mac_registration/core/compatibility_graph.hpp"
+#include "mac_registration/core/cpu_kernels.hpp"
 #include "mac_registration/core/graph_bounds.hpp"
 
 namespace mac_registration {
@@ -115,7 +116,7 @@ using CompatibleInRow = int (*)(const float*, const float*, const float*, const 
                                 const float*, int, int, float, float*, int*, float*);
 
 CompatibleInRow compatibleInRowForThisCpu() {
-  return __builtin_cpu_supports("avx512f") ? compatibleInRowAvx512 : compatibleInRowPortable;
+  return avx512Kernels() ? compatibleInRowAvx512 : compatibleInRowPortable;
 }
 
 // Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the

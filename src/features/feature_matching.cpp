@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "mac_registration/core/cpu_kernels.hpp"
+
 namespace mac_registration {
 
 // FLANN's single kd-tree, built with PCL's defaults (exact search). Each match searches a copy of it with
@@ -276,9 +278,7 @@ __attribute__((target_clones("avx2", "default"), optimize("fp-contract=off"))) v
 
 using ScanTiles = void (*)(const ScanState&, const float*, int, int, int);
 
-ScanTiles scanTilesForThisCpu() {
-  return __builtin_cpu_supports("avx512f") ? scanTilesAvx512 : scanTilesPortable;
-}
+ScanTiles scanTilesForThisCpu() { return avx512Kernels() ? scanTilesAvx512 : scanTilesPortable; }
 
 // The scan state of queries [q, q + kQueryGroup) of `order` (the last one repeated for a short group).
 ScanState groupState(const FpfhCloud& queries, const std::vector<float>& query_norms, const int* order, int q,
