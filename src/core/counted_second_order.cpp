@@ -202,12 +202,16 @@ __attribute__((target("avx512f,avx512vpopcntdq"))) std::int64_t commonCountAvx51
 #pragma GCC diagnostic pop
 }
 
+// Four running counts (rows are whole 512-bit blocks, so words is a multiple of 8): one count would wait
+// on each word's popcount in turn.
 __attribute__((target_clones("popcnt", "default"))) std::int64_t commonCountPortable(const std::uint64_t* a,
                                                                                      const std::uint64_t* b,
                                                                                      std::size_t words) {
-  std::int64_t count = 0;
-  for (std::size_t w = 0; w < words; ++w) count += __builtin_popcountll(a[w] & b[w]);
-  return count;
+  std::int64_t count[4] = {0, 0, 0, 0};
+  for (std::size_t w = 0; w < words; w += 4) {
+    for (std::size_t k = 0; k < 4; ++k) count[k] += __builtin_popcountll(a[w + k] & b[w + k]);
+  }
+  return count[0] + count[1] + count[2] + count[3];
 }
 
 // The counts of row a against four rows at once: a's words are loaded once for the four, and the four
