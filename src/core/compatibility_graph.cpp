@@ -226,12 +226,7 @@ double secondOrderWork(const CompatibilityGraph& graph) {
   return work;
 }
 
-double secondOrderWork(const UpperRows& rows) {
-  // secondOrderWork of the rows' graph: node j's lower neighbours are its degree less its own row.
-  double work = 0.0;
-  for (int j = 0; j < rows.numNodes(); ++j) work += double(rows.degree[j] - rows.count[j]) * rows.degree[j];
-  return work;
-}
+double secondOrderWork(const UpperRows& rows) { return secondOrderWorkOfDegrees(rows.degree, rows.count); }
 
 CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
                                          const StopFlag* stop) {
@@ -250,9 +245,8 @@ CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& fog, int num_
       if (stopRequested(stop)) continue;
       const auto begin = fog.offsets[i], end = fog.offsets[i + 1];
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = fog.weights[p];
-      // The upper edges of i are the tail of its ascending list.
-      const auto upper = std::upper_bound(fog.neighbours.begin() + begin, fog.neighbours.begin() + end, i) -
-                         fog.neighbours.begin();
+      // The upper edges of i are the tail of its ascending list: its row.
+      const std::int64_t upper = rows.to[i] - fog.neighbours.data();
       commonNeighbourSums(fog, row_i.data(), upper, end, common.data() + start[i]);
       for (auto p = begin; p < end; ++p) row_i[fog.neighbours[p]] = 0.0f;
     }

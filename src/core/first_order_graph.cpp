@@ -295,15 +295,6 @@ UpperRows nodeRowsOf(PairPass& pass, const std::vector<int>& node_of_point, int 
   return rows;
 }
 
-// secondOrderWork of the graph the pass's rows make (each upper pair (i, j) costs the degree of j), from
-// the degrees alone. Integers below 2^53: exact in any order.
-double secondOrderWorkOfPass(const PairPass& pass) {
-  double work = 0.0;
-  for (std::size_t j = 0; j < pass.degree.size(); ++j)
-    work += double(pass.degree[j] - pass.row_count[j]) * pass.degree[j];
-  return work;
-}
-
 // secondOrderWorkOfNodes of that graph, read from the rows; +infinity once past `limit`. Node j's share is
 // its kept degree times its kept lower neighbours. Rows are read in ascending order, so when row j comes,
 // every row that names j has been read and j's share is known: the sum can stop as soon as it passes the
@@ -353,7 +344,9 @@ void keepRowsOf(PairPass& pass, const std::vector<char>& keep) {
 // a dense consensus makes a first-order graph of millions of edges that the budget then cuts to a few
 // hundred nodes, and building those lists first cost more than the rest of the registration.
 void boundPassSecondOrderWork(PairPass& pass, double budget, const StopFlag* stop, FirstOrderBounds& result) {
-  if (budget <= 0.0 || !pass.within_max_edges || secondOrderWorkOfPass(pass) <= budget) return;
+  if (budget <= 0.0 || !pass.within_max_edges ||
+      secondOrderWorkOfDegrees(pass.degree, pass.row_count) <= budget)
+    return;
   const std::vector<double> degree(pass.degree.begin(), pass.degree.end());
   std::size_t edges = 0;
   for (const int count : pass.row_count) edges += static_cast<std::size_t>(count);

@@ -1,13 +1,24 @@
-// Building the lists of a graph from rows of upper edges, on several threads: shared by graphOfRows and the
-// graph of the second-order sums. Internal to the core.
+// Graphs as rows of upper edges: building their lists on several threads (shared by graphOfRows and the
+// graph of the second-order sums), and their second-order work from degrees alone. Internal to the core.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include "mac_registration/core/compatibility_graph.hpp"
 
 namespace mac_registration {
+
+// secondOrderWork of a graph given each node's degree and the length of its upper row (node j's lower
+// neighbours are its degree less its own row, and each costs degree(j)). Integers below 2^53: exact.
+template <typename Degree, typename Count>
+double secondOrderWorkOfDegrees(const std::vector<Degree>& degree, const std::vector<Count>& row_count) {
+  double work = 0.0;
+  for (std::size_t j = 0; j < degree.size(); ++j)
+    work += double(degree[j] - row_count[j]) * double(degree[j]);
+  return work;
+}
 
 // A graph whose node v has degree[v] neighbours: its offsets, and its lists allocated.
 CompatibilityGraph graphWithDegrees(const std::vector<std::int64_t>& degree);

@@ -198,7 +198,6 @@ struct TargetGrid {
   }
 
   const ColumnRun* find(std::uint64_t column) const {
-    if (columns.empty()) return nullptr;
     for (std::uint64_t slot = slotOf(column) & slot_mask;; slot = (slot + 1) & slot_mask) {
       if (columns[slot].column == column) return &columns[slot];
       if (columns[slot].column == kNoColumn) return nullptr;

@@ -186,7 +186,9 @@ TEST(CliqueSearch, MergedTwinsChangeNoClique) {
   }
   CliqueSearchParams capped;
   capped.max_clique_size = 5;
-  for (const Clique& clique : search(graph, capped).cliques) EXPECT_LE(clique.size(), 5u);
+  const auto capped_cliques = search(graph, capped).cliques;
+  ASSERT_FALSE(capped_cliques.empty());
+  for (const Clique& clique : capped_cliques) EXPECT_LE(clique.size(), 5u);
 }
 
 TEST(CliqueSearch, IsolatedNodesKeepTheirIdsAndCostNothing) {

@@ -7,14 +7,14 @@
 #include <sstream>
 
 namespace mac_registration {
-namespace {
-
 double median(std::vector<double> values) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());
   const std::size_t m = values.size() / 2;
   return values.size() % 2 ? values[m] : 0.5 * (values[m - 1] + values[m]);
 }
+
+namespace {
 
 // The median of each field, taken separately: a "median pair" would not exist.
 template <typename Record>

@@ -67,6 +67,9 @@ struct StageShare {
   double percent = 0.0;  // of the total it was divided by
 };
 
+// The median of `values`, 0 for none.
+double median(std::vector<double> values);
+
 // Each stage's time and its share of `total_ms` (front end + method) [%]; the shares of a run whose
 // stages cover its whole time add up to 100, and a last entry "other" holds the untimed rest (the
 // baselines' whole method time), never negative.

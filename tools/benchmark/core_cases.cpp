@@ -5,13 +5,6 @@
 
 namespace mac_registration {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
 StageTimes stageTimesOf(const CaseResult& r) {
   StageTimes t;
   t.graph_ms = r.graph;
@@ -26,10 +19,12 @@ StageTimes stageTimesOf(const CaseResult& r) {
   return t;
 }
 
-// The front end's entries of stageShares are zero here.
+// stageShares from the first core stage on: the front end's entries are zero here.
 std::vector<StageShare> coreShares(const CaseResult& r) {
   std::vector<StageShare> shares = stageShares({}, stageTimesOf(r), r.total);
-  shares.erase(shares.begin(), shares.begin() + 5);
+  const auto graph = std::find_if(shares.begin(), shares.end(),
+                                  [](const StageShare& s) { return std::string(s.name) == "graph"; });
+  shares.erase(shares.begin(), graph);
   return shares;
 }
 

@@ -29,9 +29,6 @@ struct PeerCase {
   int recalled = 0, repeats = 0;
 };
 
-// The median of `v`, 0 for none.
-double median(std::vector<double> v);
-
 StageTimes stageTimesOf(const CaseResult& r);
 
 // The core's stages (graph .. verify, other) and their shares of the median total.
