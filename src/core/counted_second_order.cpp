@@ -239,15 +239,73 @@ void commonCounts4Portable(const std::uint64_t* a, const std::uint64_t* const b[
   for (int k = 0; k < 4; ++k) out[k] = commonCountPortable(a, b[k], words);
 }
 
+// Per-byte popcounts of 256 bits, from a table of the sixteen nibbles' counts (AVX2 has no vector popcount).
+__attribute__((target("avx2"))) inline __m256i bytePopcounts(__m256i v) {
+  const __m256i nibble_counts = _mm256_setr_epi8(0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4, 0, 1, 1, 2,
+                                                 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4);
+  const __m256i low = _mm256_set1_epi8(0x0F);
+  return _mm256_add_epi8(_mm256_shuffle_epi8(nibble_counts, _mm256_and_si256(v, low)),
+                         _mm256_shuffle_epi8(nibble_counts, _mm256_and_si256(_mm256_srli_epi16(v, 4), low)));
+}
+
+__attribute__((target("avx2"))) inline std::int64_t sumOfLanes(__m256i v) {
+  const __m128i half = _mm_add_epi64(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  return _mm_cvtsi128_si64(half) + _mm_extract_epi64(half, 1);
+}
+
+// The counts of row a against four rows, as commonCounts4Avx512 (words a multiple of 4). The byte counts are
+// summed as bytes for up to 31 blocks of 256 bits (at most 8 a block, so below 256), then widened into 64-bit
+// lanes.
+__attribute__((target("avx2"))) void commonCounts4Avx2(const std::uint64_t* a,
+                                                       const std::uint64_t* const b[4], std::size_t words,
+                                                       std::int64_t out[4]) {
+  constexpr std::size_t kBlocksPerByteSum = 31;
+  const __m256i zero = _mm256_setzero_si256();
+  __m256i count[4] = {zero, zero, zero, zero};
+  for (std::size_t w = 0; w < words;) {
+    const std::size_t stop = std::min(words, w + 4 * kBlocksPerByteSum);
+    __m256i bytes[4] = {zero, zero, zero, zero};
+    for (; w < stop; w += 4) {
+      const __m256i row = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a + w));
+      for (int k = 0; k < 4; ++k) {
+        const __m256i column = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b[k] + w));
+        bytes[k] = _mm256_add_epi8(bytes[k], bytePopcounts(_mm256_and_si256(row, column)));
+      }
+    }
+    for (int k = 0; k < 4; ++k) count[k] = _mm256_add_epi64(count[k], _mm256_sad_epu8(bytes[k], zero));
+  }
+  for (int k = 0; k < 4; ++k) out[k] = sumOfLanes(count[k]);
+}
+
+__attribute__((target("avx2"))) std::int64_t commonCountAvx2(const std::uint64_t* a, const std::uint64_t* b,
+                                                             std::size_t words) {
+  constexpr std::size_t kBlocksPerByteSum = 31;  // as in commonCounts4Avx2
+  const __m256i zero = _mm256_setzero_si256();
+  __m256i count = zero;
+  for (std::size_t w = 0; w < words;) {
+    const std::size_t stop = std::min(words, w + 4 * kBlocksPerByteSum);
+    __m256i bytes = zero;
+    for (; w < stop; w += 4) {
+      const __m256i both = _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(a + w)),
+                                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + w)));
+      bytes = _mm256_add_epi8(bytes, bytePopcounts(both));
+    }
+    count = _mm256_add_epi64(count, _mm256_sad_epu8(bytes, zero));
+  }
+  return sumOfLanes(count);
+}
+
 using CommonCount = std::int64_t (*)(const std::uint64_t*, const std::uint64_t*, std::size_t);
 using CommonCounts4 = void (*)(const std::uint64_t*, const std::uint64_t* const*, std::size_t, std::int64_t*);
 
 CommonCount commonCountForThisCpu() {
-  return avx512PopcountKernels() ? commonCountAvx512 : commonCountPortable;
+  if (avx512PopcountKernels()) return commonCountAvx512;
+  return avx2Kernels() ? commonCountAvx2 : commonCountPortable;
 }
 
 CommonCounts4 commonCounts4ForThisCpu() {
-  return avx512PopcountKernels() ? commonCounts4Avx512 : commonCounts4Portable;
+  if (avx512PopcountKernels()) return commonCounts4Avx512;
+  return avx2Kernels() ? commonCounts4Avx2 : commonCounts4Portable;
 }
 
 }  // namespace

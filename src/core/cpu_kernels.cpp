@@ -6,15 +6,20 @@
 namespace mac_registration {
 namespace {
 
-bool portableKernelsAsked() {
-  const char* value = std::getenv("MAC_REGISTRATION_PORTABLE_KERNELS");
-  return value != nullptr && value[0] != '\0' && std::strcmp(value, "0") != 0;
+bool narrowedTo(const char* set) {
+  const char* value = std::getenv("MAC_REGISTRATION_KERNELS");
+  return value != nullptr && std::strcmp(value, set) == 0;
 }
 
 }  // namespace
 
+bool avx2Kernels() {
+  static const bool enabled = !narrowedTo("portable") && __builtin_cpu_supports("avx2");
+  return enabled;
+}
+
 bool avx512Kernels() {
-  static const bool enabled = !portableKernelsAsked() && __builtin_cpu_supports("avx512f");
+  static const bool enabled = avx2Kernels() && !narrowedTo("avx2") && __builtin_cpu_supports("avx512f");
   return enabled;
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 
@@ -112,11 +113,69 @@ __attribute__((target("avx512f,popcnt"), optimize("fp-contract=off"))) int compa
   return found;
 }
 
+// For each 8-bit mask, the lanes it sets, ascending, then zeros: the permutation that packs them left.
+struct LeftPackLanes {
+  alignas(32) std::int32_t lanes[256][8];
+  LeftPackLanes() {
+    for (int mask = 0; mask < 256; ++mask) {
+      int packed = 0;
+      for (int lane = 0; lane < 8; ++lane) {
+        if (mask & (1 << lane)) lanes[mask][packed++] = lane;
+      }
+      while (packed < 8) lanes[mask][packed++] = 0;
+    }
+  }
+};
+
+// |p_i - p_j| for the eight points from j (those outside `valid` read as 0), as pairResidualsSquared.
+__attribute__((target("avx2"), optimize("fp-contract=off"))) inline __m256 distances8(
+    const float* x, const float* y, const float* z, int j, __m256i valid, __m256 xi, __m256 yi, __m256 zi) {
+  const __m256 dx = _mm256_sub_ps(xi, _mm256_maskload_ps(x + j, valid));
+  const __m256 dy = _mm256_sub_ps(yi, _mm256_maskload_ps(y + j, valid));
+  const __m256 dz = _mm256_sub_ps(zi, _mm256_maskload_ps(z + j, valid));
+  return _mm256_sqrt_ps(
+      _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+}
+
+// compatibleInRowAvx512 for CPUs with AVX2 only: eight pairs at a time, packed in registers by a table of
+// permutations (AVX2 has no compress). The same IEEE operations as pairResidualsSquared.
+__attribute__((target("avx2,popcnt"), optimize("fp-contract=off"))) int compatibleInRowAvx2(
+    const float* sx, const float* sy, const float* sz, const float* tx, const float* ty, const float* tz,
+    int i, int n, float max_d2, float*, int* candidates, float* candidate_d2) {
+  static const LeftPackLanes pack;
+  const __m256 six = _mm256_set1_ps(sx[i]), siy = _mm256_set1_ps(sy[i]), siz = _mm256_set1_ps(sz[i]);
+  const __m256 tix = _mm256_set1_ps(tx[i]), tiy = _mm256_set1_ps(ty[i]), tiz = _mm256_set1_ps(tz[i]);
+  const __m256 bound = _mm256_set1_ps(max_d2);
+  const __m256i first_valid = _mm256_set1_epi32(i), end = _mm256_set1_epi32(n);
+  const __m256i step = _mm256_set1_epi32(8);
+  const int start = (i + 1) & ~7;  // on the 8-float boundary at or below i + 1, as the AVX-512 kernel
+  __m256i index = _mm256_add_epi32(_mm256_set1_epi32(start), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  int found = 0;
+  for (int j = start; j < n; j += 8) {
+    // i < index < n, as all-ones lanes
+    const __m256i valid =
+        _mm256_and_si256(_mm256_cmpgt_epi32(index, first_valid), _mm256_cmpgt_epi32(end, index));
+    const __m256 difference = _mm256_sub_ps(distances8(sx, sy, sz, j, valid, six, siy, siz),
+                                            distances8(tx, ty, tz, j, valid, tix, tiy, tiz));
+    const __m256 d2 = _mm256_mul_ps(difference, difference);
+    const __m256 pass = _mm256_and_ps(_mm256_cmp_ps(d2, bound, _CMP_LE_OQ), _mm256_castsi256_ps(valid));
+    const int mask = _mm256_movemask_ps(pass);
+    const __m256i lanes = _mm256_load_si256(reinterpret_cast<const __m256i*>(pack.lanes[mask]));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(candidates + found),
+                        _mm256_permutevar8x32_epi32(index, lanes));
+    _mm256_storeu_ps(candidate_d2 + found, _mm256_permutevar8x32_ps(d2, lanes));
+    found += __builtin_popcount(static_cast<unsigned>(mask));
+    index = _mm256_add_epi32(index, step);
+  }
+  return found;
+}
+
 using CompatibleInRow = int (*)(const float*, const float*, const float*, const float*, const float*,
                                 const float*, int, int, float, float*, int*, float*);
 
 CompatibleInRow compatibleInRowForThisCpu() {
-  return avx512Kernels() ? compatibleInRowAvx512 : compatibleInRowPortable;
+  if (avx512Kernels()) return compatibleInRowAvx512;
+  return avx2Kernels() ? compatibleInRowAvx2 : compatibleInRowPortable;
 }
 
 // Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the
