@@ -14,7 +14,8 @@ bool narrowedTo(const char* set) {
 }  // namespace
 
 bool avx2Kernels() {
-  static const bool enabled = !narrowedTo("portable") && __builtin_cpu_supports("avx2");
+  static const bool enabled =
+      !narrowedTo("portable") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return enabled;
 }
 

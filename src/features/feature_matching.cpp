@@ -242,8 +242,104 @@ __attribute__((target("avx512f"))) void scanTilesAvx512(const ScanState& s, cons
   }
 }
 
-// Without AVX-512 (an AVX2 clone where the CPU has it): the direct sum for every pair, the same sums as
-// above.
+// exactSquaredDistances16 with AVX2, a tile's 16 lanes as two halves of 8.
+__attribute__((target("avx2"), optimize("fp-contract=off"), noinline)) void exactSquaredDistances16Avx2(
+    const float* query, const float* tile, float out[kLanes]) {
+  __m256 low = _mm256_setzero_ps(), high = _mm256_setzero_ps();
+  for (int b = 0; b < kBins; ++b) {
+    const __m256 q = _mm256_set1_ps(query[b]);
+    const __m256 diff_low = _mm256_sub_ps(q, _mm256_load_ps(tile + b * kLanes));
+    const __m256 diff_high = _mm256_sub_ps(q, _mm256_load_ps(tile + b * kLanes + 8));
+    low = _mm256_add_ps(low, _mm256_mul_ps(diff_low, diff_low));
+    high = _mm256_add_ps(high, _mm256_mul_ps(diff_high, diff_high));
+  }
+  _mm256_storeu_ps(out, low);
+  _mm256_storeu_ps(out + 8, high);
+}
+
+// The 16-bit mask of a < b over two halves of 8 lanes.
+__attribute__((target("avx2"))) inline int lessMask16(__m256 a_low, __m256 a_high, __m256 b_low,
+                                                      __m256 b_high) {
+  return _mm256_movemask_ps(_mm256_cmp_ps(a_low, b_low, _CMP_LT_OQ)) |
+         (_mm256_movemask_ps(_mm256_cmp_ps(a_high, b_high, _CMP_LT_OQ)) << 8);
+}
+
+// scanTilesAvx512 with AVX2 and FMA: the same screen in the dot-product form and the same rechecks, each
+// 16-lane register as two halves of 8; the dot products of one half for the 8 queries at a time (16
+// accumulators would not fit the 16 registers).
+__attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const float* packed,
+                                                       int tile_begin, int tile_end, int distinct_queries) {
+  for (int tile = tile_begin; tile < tile_end; ++tile) {
+    const float* t = packed + std::size_t(tile) * kBins * kLanes;
+    alignas(32) float fast[kQueryGroup][kLanes], slack[kQueryGroup][kLanes];
+    for (int half = 0; half < kLanes; half += 8) {
+      __m256 dot[kQueryGroup];
+      for (int k = 0; k < kQueryGroup; ++k) dot[k] = _mm256_setzero_ps();
+      for (int b = 0; b < kBins; ++b) {
+        const __m256 row = _mm256_load_ps(t + b * kLanes + half);
+        for (int k = 0; k < kQueryGroup; ++k)
+          dot[k] = _mm256_fmadd_ps(_mm256_set1_ps(s.query[k][b]), row, dot[k]);
+      }
+      const __m256 target_norms = _mm256_load_ps(s.target_norms + std::size_t(tile) * kLanes + half);
+      for (int k = 0; k < kQueryGroup; ++k) {
+        const __m256 norms = _mm256_add_ps(_mm256_set1_ps(s.query_norm[k]), target_norms);
+        _mm256_store_ps(fast[k] + half, _mm256_fmadd_ps(_mm256_set1_ps(-2.0f), dot[k], norms));
+        _mm256_store_ps(slack[k] + half, _mm256_mul_ps(_mm256_set1_ps(kFastFormSlack), norms));
+      }
+    }
+    for (int k = 0; k < distinct_queries; ++k) {
+      const __m256 second = _mm256_set1_ps(s.best[k]->second);
+      int maybe = lessMask16(_mm256_load_ps(fast[k]), _mm256_load_ps(fast[k] + 8),
+                             _mm256_add_ps(second, _mm256_load_ps(slack[k])),
+                             _mm256_add_ps(second, _mm256_load_ps(slack[k] + 8)));
+      if (__builtin_popcount(maybe) > kScalarRechecks) {
+        alignas(32) float d2[kLanes];
+        exactSquaredDistances16Avx2(s.query[k], t, d2);
+        offerLanes(d2, s.target_of_slot + tile * kLanes, kLanes, *s.best[k]);
+        continue;
+      }
+      while (maybe) {
+        const int lane = __builtin_ctz(maybe);
+        maybe &= maybe - 1;
+        s.best[k]->offer(exactSquaredDistance(s.query[k], t, lane), s.target_of_slot[tile * kLanes + lane]);
+      }
+    }
+    if (s.column_d2) {
+      float* cd = s.column_d2 + std::size_t(tile) * kLanes;
+      int* cq = s.column_query + std::size_t(tile) * kLanes;
+      for (int k = 0; k < distinct_queries; ++k) {  // ascending query index: strict < keeps the lowest
+        const __m256 column_low = _mm256_loadu_ps(cd), column_high = _mm256_loadu_ps(cd + 8);
+        int maybe = lessMask16(_mm256_load_ps(fast[k]), _mm256_load_ps(fast[k] + 8),
+                               _mm256_add_ps(column_low, _mm256_load_ps(slack[k])),
+                               _mm256_add_ps(column_high, _mm256_load_ps(slack[k] + 8)));
+        if (maybe == 0) continue;
+        if (__builtin_popcount(maybe) > kScalarRechecks) {
+          alignas(32) float d2[kLanes];
+          exactSquaredDistances16Avx2(s.query[k], t, d2);
+          for (int lane = 0; lane < kLanes; ++lane) {
+            if (d2[lane] < cd[lane]) {
+              cd[lane] = d2[lane];
+              cq[lane] = s.query_index[k];
+            }
+          }
+          continue;
+        }
+        while (maybe) {
+          const int lane = __builtin_ctz(maybe);
+          maybe &= maybe - 1;
+          const float d2 = exactSquaredDistance(s.query[k], t, lane);
+          if (d2 < cd[lane]) {
+            cd[lane] = d2;
+            cq[lane] = s.query_index[k];
+          }
+        }
+      }
+    }
+  }
+}
+
+// Without AVX2 and FMA (or with the kernels narrowed to the portable ones; then an AVX2 clone where the CPU
+// has it): the direct sum for every pair, the same sums as above.
 __attribute__((target_clones("avx2", "default"), optimize("fp-contract=off"))) void scanTilesPortable(
     const ScanState& s, const float* packed, int tile_begin, int tile_end, int distinct_queries) {
   for (int tile = tile_begin; tile < tile_end; ++tile) {
@@ -278,7 +374,10 @@ __attribute__((target_clones("avx2", "default"), optimize("fp-contract=off"))) v
 
 using ScanTiles = void (*)(const ScanState&, const float*, int, int, int);
 
-ScanTiles scanTilesForThisCpu() { return avx512Kernels() ? scanTilesAvx512 : scanTilesPortable; }
+ScanTiles scanTilesForThisCpu() {
+  if (avx512Kernels()) return scanTilesAvx512;
+  return avx2Kernels() ? scanTilesAvx2 : scanTilesPortable;
+}
 
 // The scan state of queries [q, q + kQueryGroup) of `order` (the last one repeated for a short group).
 ScanState groupState(const FpfhCloud& queries, const std::vector<float>& query_norms, const int* order, int q,

@@ -5,11 +5,11 @@ namespace mac_registration {
 // Which of the hand-written SIMD kernels may run: the widest set the CPU has, narrowed by the environment
 // variable MAC_REGISTRATION_KERNELS ("avx2": no AVX-512 kernel; "portable": none, only the compiler's
 // code; unset, empty or any other value: no narrowing). Every kernel has a portable twin that gives the
-// same results bit for bit, and the AVX-512 ones an AVX2 twin too: the variable makes a CPU with AVX-512
-// run what a CPU without it runs, so that the tests check the twins and their speed can be measured.
-// Read once.
+// same results bit for bit, and the pair test, the common-neighbour count and the descriptor scan an AVX2
+// twin too: the variable makes a CPU with AVX-512 run what a CPU without it runs, so that the tests check
+// the twins and their speed can be measured. Read once.
 bool avx512Kernels();          // AVX-512F
 bool avx512PopcountKernels();  // AVX-512F and VPOPCNTDQ
-bool avx2Kernels();            // AVX2 (whatever avx512Kernels() says)
+bool avx2Kernels();            // AVX2 and FMA (whatever avx512Kernels() says)
 
 }  // namespace mac_registration
