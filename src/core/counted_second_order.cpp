@@ -1,7 +1,5 @@
 // Second-order weights of dense chance graphs estimated from common-neighbour counts (the exact sums are in
 // compatibility_graph.cpp): bit rows of the neighbour sets, ANDed and counted a chunk of rows at a time.
-#include <immintrin.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <initializer_list>
@@ -9,6 +7,10 @@
 
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/cpu_kernels.hpp"
+
+#if MAC_REGISTRATION_X86
+#include <immintrin.h>
+#endif
 
 namespace mac_registration {
 namespace {
@@ -59,6 +61,7 @@ void transposeBitsPortable(std::uint64_t a[64]) {
   }
 }
 
+#if MAC_REGISTRATION_X86
 // GCC 12 warns of the undefined vectors its AVX-512 shift and blend intrinsics start from (a false
 // positive, GCC bug 105593).
 #pragma GCC diagnostic push
@@ -105,10 +108,15 @@ __attribute__((target("avx512f"))) void transposeBitsAvx512(std::uint64_t a[64])
 
 #pragma GCC diagnostic pop
 
+#endif  // MAC_REGISTRATION_X86
+
 using TransposeBits = void (*)(std::uint64_t*);
 
 TransposeBits transposeBitsForThisCpu() {
-  return avx512Kernels() ? transposeBitsAvx512 : transposeBitsPortable;
+#if MAC_REGISTRATION_X86
+  if (avx512Kernels()) return transposeBitsAvx512;
+#endif
+  return transposeBitsPortable;
 }
 
 // Gives every bit row its lower bits, the transpose of the upper ones that its own rows set: block
@@ -186,6 +194,7 @@ NeighbourSets neighbourSets(const UpperRows& rows, int num_threads) {
   return out;
 }
 
+#if MAC_REGISTRATION_X86
 __attribute__((target("avx512f,avx512vpopcntdq"))) std::int64_t commonCountAvx512(const std::uint64_t* a,
                                                                                   const std::uint64_t* b,
                                                                                   std::size_t words) {
@@ -202,11 +211,12 @@ __attribute__((target("avx512f,avx512vpopcntdq"))) std::int64_t commonCountAvx51
 #pragma GCC diagnostic pop
 }
 
+#endif  // MAC_REGISTRATION_X86
+
 // Four running counts (rows are whole 512-bit blocks, so words is a multiple of 8): one count would wait
 // on each word's popcount in turn.
-__attribute__((target_clones("popcnt", "default"))) std::int64_t commonCountPortable(const std::uint64_t* a,
-                                                                                     const std::uint64_t* b,
-                                                                                     std::size_t words) {
+MAC_REGISTRATION_CLONES_POPCNT std::int64_t commonCountPortable(const std::uint64_t* a,
+                                                                const std::uint64_t* b, std::size_t words) {
   std::int64_t count[4] = {0, 0, 0, 0};
   for (std::size_t w = 0; w < words; w += 4) {
     for (std::size_t k = 0; k < 4; ++k) count[k] += __builtin_popcountll(a[w + k] & b[w + k]);
@@ -214,6 +224,7 @@ __attribute__((target_clones("popcnt", "default"))) std::int64_t commonCountPort
   return count[0] + count[1] + count[2] + count[3];
 }
 
+#if MAC_REGISTRATION_X86
 // The counts of row a against four rows at once: a's words are loaded once for the four, and the four
 // sums are independent chains.
 __attribute__((target("avx512f,avx512vpopcntdq"))) void commonCounts4Avx512(const std::uint64_t* a,
@@ -234,11 +245,14 @@ __attribute__((target("avx512f,avx512vpopcntdq"))) void commonCounts4Avx512(cons
 #pragma GCC diagnostic pop
 }
 
+#endif  // MAC_REGISTRATION_X86
+
 void commonCounts4Portable(const std::uint64_t* a, const std::uint64_t* const b[4], std::size_t words,
                            std::int64_t out[4]) {
   for (int k = 0; k < 4; ++k) out[k] = commonCountPortable(a, b[k], words);
 }
 
+#if MAC_REGISTRATION_X86
 // Per-byte popcounts of 256 bits, from a table of the sixteen nibbles' counts (AVX2 has no vector popcount).
 __attribute__((target("avx2"))) inline __m256i bytePopcounts(__m256i v) {
   const __m256i nibble_counts = _mm256_setr_epi8(0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4, 0, 1, 1, 2,
@@ -295,17 +309,25 @@ __attribute__((target("avx2"))) std::int64_t commonCountAvx2(const std::uint64_t
   return sumOfLanes(count);
 }
 
+#endif  // MAC_REGISTRATION_X86
+
 using CommonCount = std::int64_t (*)(const std::uint64_t*, const std::uint64_t*, std::size_t);
 using CommonCounts4 = void (*)(const std::uint64_t*, const std::uint64_t* const*, std::size_t, std::int64_t*);
 
 CommonCount commonCountForThisCpu() {
+#if MAC_REGISTRATION_X86
   if (avx512PopcountKernels()) return commonCountAvx512;
-  return avx2Kernels() ? commonCountAvx2 : commonCountPortable;
+  if (avx2Kernels()) return commonCountAvx2;
+#endif
+  return commonCountPortable;
 }
 
 CommonCounts4 commonCounts4ForThisCpu() {
+#if MAC_REGISTRATION_X86
   if (avx512PopcountKernels()) return commonCounts4Avx512;
-  return avx2Kernels() ? commonCounts4Avx2 : commonCounts4Portable;
+  if (avx2Kernels()) return commonCounts4Avx2;
+#endif
+  return commonCounts4Portable;
 }
 
 }  // namespace

@@ -6,12 +6,14 @@
 namespace mac_registration {
 namespace {
 
-bool narrowedTo(const char* set) {
+[[maybe_unused]] bool narrowedTo(const char* set) {
   const char* value = std::getenv("MAC_REGISTRATION_KERNELS");
   return value != nullptr && std::strcmp(value, set) == 0;
 }
 
 }  // namespace
+
+#if MAC_REGISTRATION_X86
 
 bool avx2Kernels() {
   static const bool enabled =
@@ -28,5 +30,13 @@ bool avx512PopcountKernels() {
   static const bool enabled = avx512Kernels() && __builtin_cpu_supports("avx512vpopcntdq");
   return enabled;
 }
+
+#else
+
+bool avx2Kernels() { return false; }
+bool avx512Kernels() { return false; }
+bool avx512PopcountKernels() { return false; }
+
+#endif
 
 }  // namespace mac_registration

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mac_registration/core/cpu_kernels.hpp"
+
 namespace mac_registration {
 
 HypothesisEvaluator::HypothesisEvaluator(const CorrespondenceSet& c, const EvaluationParams& params)
@@ -40,11 +42,9 @@ struct ScoreSums {
 // and eight explicit lanes: the compiler vectorizes the sums without reassociating float additions, so
 // the result is the same with or without vector units. An AVX2 clone is picked at run time where the CPU
 // has it (the same operations, no FMA).
-__attribute__((target_clones("avx2", "default"))) ScoreSums scoreKernel(const float* sx, const float* sy,
-                                                                        const float* sz, const float* tx,
-                                                                        const float* ty, const float* tz,
-                                                                        std::size_t n, const float* r,
-                                                                        const float* t, float tau) {
+MAC_REGISTRATION_CLONES_AVX2 ScoreSums scoreKernel(const float* sx, const float* sy, const float* sz,
+                                                   const float* tx, const float* ty, const float* tz,
+                                                   std::size_t n, const float* r, const float* t, float tau) {
   constexpr std::size_t kLanes = 8;
   float mae[kLanes] = {}, mse[kLanes] = {}, count[kLanes] = {};
   const float inv_tau = 1.0f / tau, tau2 = tau * tau;
@@ -77,9 +77,10 @@ __attribute__((target_clones("avx2", "default"))) ScoreSums scoreKernel(const fl
 
 // residualSquared() of every correspondence, as doubles (float to double is exact). Branch-free so that
 // it vectorizes; the same operations in the same order, without FMA, so the same values on either clone.
-__attribute__((target_clones("avx2", "default"))) void residualsSquaredKernel(
-    const float* sx, const float* sy, const float* sz, const float* tx, const float* ty, const float* tz,
-    std::size_t n, const float* r, const float* t, double* out) {
+MAC_REGISTRATION_CLONES_AVX2 void residualsSquaredKernel(const float* sx, const float* sy, const float* sz,
+                                                         const float* tx, const float* ty, const float* tz,
+                                                         std::size_t n, const float* r, const float* t,
+                                                         double* out) {
   for (std::size_t i = 0; i < n; ++i) {
     const float dx = r[0] * sx[i] + r[1] * sy[i] + r[2] * sz[i] + t[0] - tx[i];
     const float dy = r[3] * sx[i] + r[4] * sy[i] + r[5] * sz[i] + t[1] - ty[i];

@@ -1,5 +1,4 @@
 // The first-order compatibility graph (FOG): the O(N^2) pair test, its bounds, and the graph's assembly.
-#include <immintrin.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -13,6 +12,10 @@
 #include "mac_registration/core/compatibility_graph.hpp"
 #include "mac_registration/core/cpu_kernels.hpp"
 #include "mac_registration/core/graph_bounds.hpp"
+
+#if MAC_REGISTRATION_X86
+#include <immintrin.h>
+#endif
 
 namespace mac_registration {
 namespace {
@@ -34,11 +37,9 @@ float scoreFromResidualSquared(float d2, const GraphParams& params) {
 
 // The O(N^2) loop of the graph: branch-free so that it vectorizes, with an AVX2 clone picked at run time
 // where the CPU has it (the same IEEE operations, no FMA, so the same edges either way).
-__attribute__((target_clones("avx2", "default"))) void pairResidualsSquared(const float* sx, const float* sy,
-                                                                            const float* sz, const float* tx,
-                                                                            const float* ty, const float* tz,
-                                                                            int i, int begin, int end,
-                                                                            float* out) {
+MAC_REGISTRATION_CLONES_AVX2 void pairResidualsSquared(const float* sx, const float* sy, const float* sz,
+                                                       const float* tx, const float* ty, const float* tz,
+                                                       int i, int begin, int end, float* out) {
   const float six = sx[i], siy = sy[i], siz = sz[i], tix = tx[i], tiy = ty[i], tiz = tz[i];
   for (int j = begin; j < end; ++j) {
     const float ds = std::sqrt((six - sx[j]) * (six - sx[j]) + (siy - sy[j]) * (siy - sy[j]) +
@@ -69,6 +70,7 @@ int compatibleInRowPortable(const float* sx, const float* sy, const float* sz, c
   return found;
 }
 
+#if MAC_REGISTRATION_X86
 // |p_i - p_j| for the valid ones of the sixteen points from j, as pairResidualsSquared computes it.
 __attribute__((target("avx512f"), optimize("fp-contract=off"))) inline __m512 distances16(
     const float* x, const float* y, const float* z, int j, __mmask16 valid, __m512 xi, __m512 yi, __m512 zi) {
@@ -170,12 +172,17 @@ __attribute__((target("avx2,popcnt"), optimize("fp-contract=off"))) int compatib
   return found;
 }
 
+#endif  // MAC_REGISTRATION_X86
+
 using CompatibleInRow = int (*)(const float*, const float*, const float*, const float*, const float*,
                                 const float*, int, int, float, float*, int*, float*);
 
 CompatibleInRow compatibleInRowForThisCpu() {
+#if MAC_REGISTRATION_X86
   if (avx512Kernels()) return compatibleInRowAvx512;
-  return avx2Kernels() ? compatibleInRowAvx2 : compatibleInRowPortable;
+  if (avx2Kernels()) return compatibleInRowAvx2;
+#endif
+  return compatibleInRowPortable;
 }
 
 // Structure-of-arrays float copy of some correspondences, centred on each cloud's centroid (of all the

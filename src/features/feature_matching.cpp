@@ -1,6 +1,5 @@
 #include "mac_registration/features/feature_matching.hpp"
 
-#include <immintrin.h>
 #include <omp.h>
 #include <pcl/kdtree/kdtree_flann.h>
 
@@ -12,6 +11,10 @@
 #include <vector>
 
 #include "mac_registration/core/cpu_kernels.hpp"
+
+#if MAC_REGISTRATION_X86
+#include <immintrin.h>
+#endif
 
 namespace mac_registration {
 
@@ -141,6 +144,8 @@ void offerLanes(const float* d2, const int* targets, int count, BestTwo& best) {
   for (int lane = 0; lane < count; ++lane) best.offer(d2[lane], targets[lane]);
 }
 
+// The SIMD scans' pieces: the exact recheck, the fast form's bound, the kernels.
+#if MAC_REGISTRATION_X86
 // The squared distance as the kd-tree sums it: bin by bin, separate multiply and add (not inlined: the
 // caller may contract).
 __attribute__((noinline, optimize("fp-contract=off"))) float exactSquaredDistance(const float* query,
@@ -338,9 +343,11 @@ __attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const
   }
 }
 
+#endif  // MAC_REGISTRATION_X86
+
 // Without AVX2 and FMA (or with the kernels narrowed to the portable ones; then an AVX2 clone where the CPU
 // has it): the direct sum for every pair, the same sums as above.
-__attribute__((target_clones("avx2", "default"), optimize("fp-contract=off"))) void scanTilesPortable(
+MAC_REGISTRATION_CLONES_AVX2 __attribute__((optimize("fp-contract=off"))) void scanTilesPortable(
     const ScanState& s, const float* packed, int tile_begin, int tile_end, int distinct_queries) {
   for (int tile = tile_begin; tile < tile_end; ++tile) {
     const float* t = packed + std::size_t(tile) * kBins * kLanes;
@@ -375,8 +382,11 @@ __attribute__((target_clones("avx2", "default"), optimize("fp-contract=off"))) v
 using ScanTiles = void (*)(const ScanState&, const float*, int, int, int);
 
 ScanTiles scanTilesForThisCpu() {
+#if MAC_REGISTRATION_X86
   if (avx512Kernels()) return scanTilesAvx512;
-  return avx2Kernels() ? scanTilesAvx2 : scanTilesPortable;
+  if (avx2Kernels()) return scanTilesAvx2;
+#endif
+  return scanTilesPortable;
 }
 
 // The scan state of queries [q, q + kQueryGroup) of `order` (the last one repeated for a short group).
