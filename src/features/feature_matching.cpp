@@ -165,6 +165,31 @@ __attribute__((noinline, optimize("fp-contract=off"))) float exactSquaredDistanc
 // fast distance is not below the best + this bound cannot have an exact distance below the best.
 constexpr float kFastFormSlack = 1e-4f;
 
+// Candidates of one query in one tile beyond which the whole tile is recomputed in one go.
+constexpr int kScalarRechecks = 2;
+
+// The screen's candidates `maybe` (a mask of lanes) of query k in a tile, rechecked one by one by the
+// direct sum: for the query's best two, and for the columns' nearest query (cd, cq: the tile's lanes).
+void recheckForBest(const ScanState& s, int k, const float* t, int tile, unsigned maybe) {
+  while (maybe) {
+    const int lane = __builtin_ctz(maybe);
+    maybe &= maybe - 1;
+    s.best[k]->offer(exactSquaredDistance(s.query[k], t, lane), s.target_of_slot[tile * kLanes + lane]);
+  }
+}
+
+void recheckForColumns(const ScanState& s, int k, const float* t, float* cd, int* cq, unsigned maybe) {
+  while (maybe) {
+    const int lane = __builtin_ctz(maybe);
+    maybe &= maybe - 1;
+    const float d2 = exactSquaredDistance(s.query[k], t, lane);
+    if (d2 < cd[lane]) {
+      cd[lane] = d2;
+      cq[lane] = s.query_index[k];
+    }
+  }
+}
+
 // exactSquaredDistance for the 16 lanes of a tile at once: the same operations lane by lane.
 __attribute__((target("avx512f"), optimize("fp-contract=off"), noinline)) __m512 exactSquaredDistances16(
     const float* query, const float* tile) {
@@ -175,9 +200,6 @@ __attribute__((target("avx512f"), optimize("fp-contract=off"), noinline)) __m512
   }
   return sum;
 }
-
-// Candidates of one query in one tile beyond which the whole tile is recomputed in one go.
-constexpr int kScalarRechecks = 2;
 
 // AVX-512: 16 targets a register, 8 queries a group. The distances are screened in the dot-product form
 // (one fused multiply-add a bin: a third of the direct sum's operations) and every candidate that could be
@@ -210,11 +232,7 @@ __attribute__((target("avx512f"))) void scanTilesAvx512(const ScanState& s, cons
         offerLanes(d2, s.target_of_slot + tile * kLanes, kLanes, *s.best[k]);  // padding: +inf, never taken
         continue;
       }
-      while (maybe) {
-        const int lane = __builtin_ctz(maybe);
-        maybe &= maybe - 1;
-        s.best[k]->offer(exactSquaredDistance(s.query[k], t, lane), s.target_of_slot[tile * kLanes + lane]);
-      }
+      recheckForBest(s, k, t, tile, maybe);
     }
     if (s.column_d2) {
       float* cd = s.column_d2 + std::size_t(tile) * kLanes;
@@ -232,15 +250,7 @@ __attribute__((target("avx512f"))) void scanTilesAvx512(const ScanState& s, cons
               cq, _mm512_mask_mov_epi32(_mm512_loadu_si512(cq), closer, _mm512_set1_epi32(s.query_index[k])));
           continue;
         }
-        while (maybe) {
-          const int lane = __builtin_ctz(maybe);
-          maybe &= maybe - 1;
-          const float d2 = exactSquaredDistance(s.query[k], t, lane);
-          if (d2 < cd[lane]) {
-            cd[lane] = d2;
-            cq[lane] = s.query_index[k];
-          }
-        }
+        recheckForColumns(s, k, t, cd, cq, maybe);
         column = _mm512_loadu_ps(cd);
       }
     }
@@ -303,11 +313,7 @@ __attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const
         offerLanes(d2, s.target_of_slot + tile * kLanes, kLanes, *s.best[k]);
         continue;
       }
-      while (maybe) {
-        const int lane = __builtin_ctz(maybe);
-        maybe &= maybe - 1;
-        s.best[k]->offer(exactSquaredDistance(s.query[k], t, lane), s.target_of_slot[tile * kLanes + lane]);
-      }
+      recheckForBest(s, k, t, tile, maybe);
     }
     if (s.column_d2) {
       float* cd = s.column_d2 + std::size_t(tile) * kLanes;
@@ -329,15 +335,7 @@ __attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const
           }
           continue;
         }
-        while (maybe) {
-          const int lane = __builtin_ctz(maybe);
-          maybe &= maybe - 1;
-          const float d2 = exactSquaredDistance(s.query[k], t, lane);
-          if (d2 < cd[lane]) {
-            cd[lane] = d2;
-            cq[lane] = s.query_index[k];
-          }
-        }
+        recheckForColumns(s, k, t, cd, cq, maybe);
       }
     }
   }
