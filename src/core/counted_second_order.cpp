@@ -25,10 +25,8 @@ struct NeighbourBits {
   std::uint64_t* first = nullptr;  // the first row, 64-byte aligned in storage
 
   void allocate(std::size_t rows) {
-    constexpr std::size_t kLineWords = 8;
-    storage.resize(rows * words + kLineWords - 1);
-    const auto address = reinterpret_cast<std::uintptr_t>(storage.data());
-    first = storage.data() + (kLineWords - (address / 8) % kLineWords) % kLineWords;
+    storage.resize(rows * words + kCacheLineBytes / sizeof(std::uint64_t) - 1);
+    first = firstOnCacheLine(storage.data());
   }
   std::uint64_t* row(int node) const { return first + std::size_t(position[node]) * words; }
   std::uint64_t& word(int row_position, std::size_t w) const { return first[row_position * words + w]; }
@@ -267,46 +265,44 @@ __attribute__((target("avx2"))) inline std::int64_t sumOfLanes(__m256i v) {
   return _mm_cvtsi128_si64(half) + _mm_extract_epi64(half, 1);
 }
 
-// The counts of row a against four rows, as commonCounts4Avx512 (words a multiple of 4). The byte counts are
-// summed as bytes for up to 31 blocks of 256 bits (at most 8 a block, so below 256), then widened into 64-bit
-// lanes.
-__attribute__((target("avx2"))) void commonCounts4Avx2(const std::uint64_t* a,
-                                                       const std::uint64_t* const b[4], std::size_t words,
-                                                       std::int64_t out[4]) {
+// The counts of row a against Columns rows, as commonCounts4Avx512 (words a multiple of 4). The byte counts
+// are summed as bytes for up to 31 blocks of 256 bits (at most 8 a block, so below 256), then widened into
+// 64-bit lanes.
+template <int Columns>
+__attribute__((target("avx2"))) void commonCountsAvx2(const std::uint64_t* a, const std::uint64_t* const b[],
+                                                      std::size_t words, std::int64_t out[]) {
   constexpr std::size_t kBlocksPerByteSum = 31;
   const __m256i zero = _mm256_setzero_si256();
-  __m256i count[4] = {zero, zero, zero, zero};
+  __m256i count[Columns];
+  for (int k = 0; k < Columns; ++k) count[k] = zero;
   for (std::size_t w = 0; w < words;) {
     const std::size_t stop = std::min(words, w + 4 * kBlocksPerByteSum);
-    __m256i bytes[4] = {zero, zero, zero, zero};
+    __m256i bytes[Columns];
+    for (int k = 0; k < Columns; ++k) bytes[k] = zero;
     for (; w < stop; w += 4) {
       const __m256i row = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a + w));
-      for (int k = 0; k < 4; ++k) {
+      for (int k = 0; k < Columns; ++k) {
         const __m256i column = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b[k] + w));
         bytes[k] = _mm256_add_epi8(bytes[k], bytePopcounts(_mm256_and_si256(row, column)));
       }
     }
-    for (int k = 0; k < 4; ++k) count[k] = _mm256_add_epi64(count[k], _mm256_sad_epu8(bytes[k], zero));
+    for (int k = 0; k < Columns; ++k) count[k] = _mm256_add_epi64(count[k], _mm256_sad_epu8(bytes[k], zero));
   }
-  for (int k = 0; k < 4; ++k) out[k] = sumOfLanes(count[k]);
+  for (int k = 0; k < Columns; ++k) out[k] = sumOfLanes(count[k]);
+}
+
+__attribute__((target("avx2"))) void commonCounts4Avx2(const std::uint64_t* a,
+                                                       const std::uint64_t* const b[4], std::size_t words,
+                                                       std::int64_t out[4]) {
+  commonCountsAvx2<4>(a, b, words, out);
 }
 
 __attribute__((target("avx2"))) std::int64_t commonCountAvx2(const std::uint64_t* a, const std::uint64_t* b,
                                                              std::size_t words) {
-  constexpr std::size_t kBlocksPerByteSum = 31;  // as in commonCounts4Avx2
-  const __m256i zero = _mm256_setzero_si256();
-  __m256i count = zero;
-  for (std::size_t w = 0; w < words;) {
-    const std::size_t stop = std::min(words, w + 4 * kBlocksPerByteSum);
-    __m256i bytes = zero;
-    for (; w < stop; w += 4) {
-      const __m256i both = _mm256_and_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(a + w)),
-                                            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b + w)));
-      bytes = _mm256_add_epi8(bytes, bytePopcounts(both));
-    }
-    count = _mm256_add_epi64(count, _mm256_sad_epu8(bytes, zero));
-  }
-  return sumOfLanes(count);
+  const std::uint64_t* const column[1] = {b};
+  std::int64_t out[1];
+  commonCountsAvx2<1>(a, column, words, out);
+  return out[0];
 }
 
 #endif  // MAC_REGISTRATION_X86

@@ -4,16 +4,15 @@
 #include <cstring>
 
 namespace mac_registration {
+#if MAC_REGISTRATION_X86
 namespace {
 
-[[maybe_unused]] bool narrowedTo(const char* set) {
+bool narrowedTo(const char* set) {
   const char* value = std::getenv("MAC_REGISTRATION_KERNELS");
   return value != nullptr && std::strcmp(value, set) == 0;
 }
 
 }  // namespace
-
-#if MAC_REGISTRATION_X86
 
 bool avx2Kernels() {
   static const bool enabled =

@@ -228,11 +228,10 @@ class PointsSoA {
 
  private:
   void allocate(std::size_t n) {
-    constexpr std::size_t kLineFloats = 16;
+    constexpr std::size_t kLineFloats = kCacheLineBytes / sizeof(float);
     const std::size_t stride = (n + kLineFloats - 1) / kLineFloats * kLineFloats;
     storage_.resize(6 * stride + kLineFloats - 1);
-    const auto address = reinterpret_cast<std::uintptr_t>(storage_.data());
-    float* first = storage_.data() + (kLineFloats - (address / 4) % kLineFloats) % kLineFloats;
+    float* first = firstOnCacheLine(storage_.data());
     float** arrays[] = {&sx, &sy, &sz, &tx, &ty, &tz};
     for (std::size_t a = 0; a < 6; ++a) *arrays[a] = first + a * stride;
     size_ = static_cast<int>(n);

@@ -144,6 +144,17 @@ void offerLanes(const float* d2, const int* targets, int count, BestTwo& best) {
   for (int lane = 0; lane < count; ++lane) best.offer(d2[lane], targets[lane]);
 }
 
+// The exact distances d2 of query k to a tile's 16 lanes, offered to those lanes' columns (cd, cq; the
+// mutual check's nearest query of each target).
+void offerToColumns(const float* d2, const ScanState& s, int k, float* cd, int* cq) {
+  for (int lane = 0; lane < kLanes; ++lane) {
+    if (d2[lane] < cd[lane]) {
+      cd[lane] = d2[lane];
+      cq[lane] = s.query_index[k];
+    }
+  }
+}
+
 // The SIMD scans' pieces: the exact recheck, the fast form's bound, the kernels.
 #if MAC_REGISTRATION_X86
 // The squared distance as the kd-tree sums it: bin by bin, separate multiply and add (not inlined: the
@@ -327,12 +338,7 @@ __attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const
         if (__builtin_popcount(maybe) > kScalarRechecks) {
           alignas(32) float d2[kLanes];
           exactSquaredDistances16Avx2(s.query[k], t, d2);
-          for (int lane = 0; lane < kLanes; ++lane) {
-            if (d2[lane] < cd[lane]) {
-              cd[lane] = d2[lane];
-              cq[lane] = s.query_index[k];
-            }
-          }
+          offerToColumns(d2, s, k, cd, cq);
           continue;
         }
         recheckForColumns(s, k, t, cd, cq, maybe);
@@ -365,14 +371,7 @@ MAC_REGISTRATION_CLONES_AVX2 __attribute__((optimize("fp-contract=off"))) void s
     if (s.column_d2) {
       float* cd = s.column_d2 + std::size_t(tile) * kLanes;
       int* cq = s.column_query + std::size_t(tile) * kLanes;
-      for (int k = 0; k < distinct_queries; ++k) {
-        for (int lane = 0; lane < kLanes; ++lane) {
-          if (acc[k][lane] < cd[lane]) {
-            cd[lane] = acc[k][lane];
-            cq[lane] = s.query_index[k];
-          }
-        }
-      }
+      for (int k = 0; k < distinct_queries; ++k) offerToColumns(acc[k], s, k, cd, cq);
     }
   }
 }

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <type_traits>
 #include <utility>
@@ -37,5 +39,17 @@ class DefaultInitAllocator : public std::allocator<T> {
 // Construction with a value, assign() and push_back() initialise as usual.
 template <typename T>
 using UninitialisedVector = std::vector<T, DefaultInitAllocator<T>>;
+
+// The first element of `data` on a 64-byte cache line, for buffers allocated with up to
+// kCacheLineBytes / sizeof(T) - 1 elements to spare (malloc aligns to 16 bytes only). A SIMD load across
+// two lines costs two.
+constexpr std::size_t kCacheLineBytes = 64;
+template <typename T>
+T* firstOnCacheLine(T* data) {
+  static_assert(kCacheLineBytes % sizeof(T) == 0, "whole elements to a line");
+  const auto address = reinterpret_cast<std::uintptr_t>(data);
+  const std::size_t line = kCacheLineBytes / sizeof(T);
+  return data + (line - (address / sizeof(T)) % line) % line;
+}
 
 }  // namespace mac_registration
