@@ -5,6 +5,7 @@
 # and the ROS sources, which have no kernels, are not compiled. Installs g++-aarch64-linux-gnu if missing.
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
+exit_with_help_if_asked "$@"
 if ! command -v aarch64-linux-gnu-g++ >/dev/null; then
   sudo=""
   [ "$(id -u)" -ne 0 ] && sudo="sudo"

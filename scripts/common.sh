@@ -10,6 +10,17 @@ PROJECT_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # symbolic links and would find the package inside itself again and again.
 WORKSPACE="${MAC_WORKSPACE:-$(dirname "$PROJECT_DIR")/mac_registration_ws}"
 
+# `--help` or `-h` among a script's arguments: prints its header comment and exits 0.
+exit_with_help_if_asked() {
+  local arg
+  for arg in "$@"; do
+    if [ "$arg" = --help ] || [ "$arg" = -h ]; then
+      sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"
+      exit 0
+    fi
+  done
+}
+
 # Debian 12 packages the package builds, tests and runs with.
 DEBIAN_PACKAGES=(
   build-essential cmake pkg-config catkin clang-format git

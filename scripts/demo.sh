@@ -5,6 +5,7 @@
 # With a display (DISPLAY set), rviz shows the indoor alignment; gui:=false keeps it headless.
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
+exit_with_help_if_asked "$@"
 DEBIAN_PACKAGES+=(rviz)
 install_dependencies
 build_workspace
@@ -12,4 +13,20 @@ source_workspace
 gui=false
 [ -n "${DISPLAY:-}" ] && gui=true
 echo "== roslaunch mac_registration demo.launch gui:=$gui"
-roslaunch mac_registration demo.launch bag:="$WORKSPACE/build/mac_registration/demo.bag" gui:="$gui"
+# roslaunch runs in the background and is stopped once the monitor has written its summary, so that the
+# summary, not roslaunch's shutdown messages, is what the demo prints last.
+summary="$WORKSPACE/demo_summary.txt"
+rm -f "$summary"
+roslaunch mac_registration demo.launch bag:="$WORKSPACE/build/mac_registration/demo.bag" gui:="$gui" \
+  exit_when_done:=false summary_file:="$summary" &
+launch=$!
+while [ ! -f "$summary" ] && kill -0 "$launch" 2>/dev/null; do sleep 1; done
+kill -INT "$launch" 2>/dev/null || true
+wait "$launch" || true
+if [ ! -f "$summary" ]; then
+  echo "demo: roslaunch ended before every registration was reported"
+  exit 1
+fi
+echo
+echo "== summary"
+cat "$summary"

@@ -4,6 +4,7 @@
 # Needs a built workspace (scripts/demo.sh) and: apt-get install xvfb imagemagick rviz
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
+exit_with_help_if_asked "$@"
 source_workspace
 export DISPLAY=:99
 Xvfb "$DISPLAY" -screen 0 1280x900x24 >/dev/null 2>&1 &

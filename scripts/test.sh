@@ -3,6 +3,7 @@
 # tests, then builds the whole package (warnings are errors) and runs every test with ctest.
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
+exit_with_help_if_asked "$@"
 install_dependencies
 check_formatting
 mkdir -p "$WORKSPACE"

@@ -59,6 +59,9 @@ def row_of(label, pairs):
 
 
 def main(argv):
+    if any(a in ("-h", "--help") for a in argv):
+        print(__doc__)
+        return 0
     if len(argv) < 2:
         sys.exit(__doc__)
     motions = read_motions(argv[0])

@@ -593,9 +593,26 @@ int runVerify(Options o, bool params_given) {
 int main(int argc, char** argv) {
   using namespace mac_registration;
   const std::string usage =
-      "usage: mac_benchmark synthetic|correspondences|compare|pairs|gtlog|sets ... (see the comment at the "
-      "top of "
-      "tools/mac_benchmark.cpp or BENCHMARKS.md)\n";
+      "usage: mac_benchmark MODE ...\n"
+      "  mac_benchmark synthetic [--sizes 250,500,...] [--ratios 0.02,0.05,...] [--noise M] [--repeats R]\n"
+      "                          [--mesh PLY] [--csv FILE] [--config FILE] [--set KEY=VALUE]...\n"
+      "  mac_benchmark correspondences FILE GT_FILE [--repeats R] [--csv FILE] [--config FILE] [--set ...]\n"
+      "  mac_benchmark compare ESTIMATE_FILE GT_FILE\n"
+      "  mac_benchmark pairs TABLE.tsv [dataset options]\n"
+      "  mac_benchmark gtlog FRAGMENT_DIR GT_LOG [--subset-name NAME] [dataset options]\n"
+      "  mac_benchmark sets FOLDER|LIST [dataset options]\n"
+      "  mac_benchmark verify [TABLE.tsv|FOLDER|LIST]... [--derived] [--synthetic] [--thresholds 0,0.1,...]\n"
+      "                       [--no-cloud-verification] [dataset options]\n"
+      "dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline "
+      "ransac,open3d,fgr|none]\n"
+      "                 [--ransac-iterations N] [--subset NAME] [--limit N]\n"
+      "BENCHMARKS.md shows each mode with its data and its table.\n";
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "-h" || std::string(argv[i]) == "--help") {
+      std::cout << usage;
+      return 0;
+    }
+  }
   if (argc < 2) {
     std::cerr << usage;
     return 2;

@@ -7,6 +7,7 @@
 #include <rosbag/bag.h>
 
 #include <iostream>
+#include <string>
 
 #include "mac_registration/core/text_io.hpp"
 #include "mac_registration/features/cloud_io.hpp"
@@ -37,8 +38,13 @@ constexpr double kPeriod = 4.0;  // [s] between two publications of the same pai
 
 int main(int argc, char** argv) {
   using namespace mac_registration;
+  const char* usage = "usage: make_demo_bag OUT.bag DATA_DIR (the package's source folder)\n";
+  if (argc == 2 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help")) {
+    std::cout << usage;
+    return 0;
+  }
   if (argc != 3) {
-    std::cerr << "usage: make_demo_bag OUT.bag DATA_DIR (the package's source folder)\n";
+    std::cerr << usage;
     return 2;
   }
   const std::string root = argv[2];
