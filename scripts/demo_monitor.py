@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Prints each demo registration with its error against the ground truth on <pair>/ground_truth."""
 import math
+import os
 
 import rospy
 from geometry_msgs.msg import TransformStamped
@@ -47,6 +48,10 @@ class Monitor:
     def __init__(self):
         self.expected = rospy.get_param("~expected_results", 6)
         self.exit_when_done = rospy.get_param("~exit_when_done", True)
+        # Where the summary goes when every registration is reported (scripts/demo.sh prints it last, after
+        # roslaunch has shut down); the monitor then exits whatever exit_when_done says.
+        self.summary_file = rospy.get_param("~summary_file", "")
+        self.summary = []
         self.truth = {}
         self.reported = 0
         self.within = 0
@@ -82,10 +87,16 @@ class Monitor:
         else:
             lines.append("  " + msg.message)
         rospy.loginfo("\n".join(lines))
+        self.summary.append(lines[0] + ("" if msg.success else " (%s)" % msg.message))
         self.reported += 1
         if self.reported >= self.expected:
-            rospy.loginfo("demo: %d registrations, %d within the benchmark criterion", self.reported, self.within)
-            if self.exit_when_done:
+            done = "demo: %d registrations, %d within the benchmark criterion" % (self.reported, self.within)
+            rospy.loginfo(done)
+            if self.summary_file:
+                with open(self.summary_file + ".part", "w") as f:
+                    f.write("\n".join(self.summary + [done]) + "\n")
+                os.replace(self.summary_file + ".part", self.summary_file)  # whole or not at all
+            if self.exit_when_done or self.summary_file:
                 rospy.signal_shutdown("demo finished")
 
 
