@@ -116,6 +116,13 @@ CloudConversion toPointCloud(const sensor_msgs::PointCloud2& msg) {
       cloud->push_back(p);
     }
   }
+  if (cloud->size() < 3 && out.dropped_non_finite > 0) {
+    // Said here, where the cloud's own size is still known: the front end sees only the finite points.
+    out.error = std::to_string(cloud->size()) + " of its " +
+                std::to_string(std::uint64_t(msg.width) * msg.height) +
+                " points are finite (the others hold NaN or Inf); at least 3 are needed";
+    return out;
+  }
   cloud->width = static_cast<std::uint32_t>(cloud->size());
   cloud->height = 1;
   cloud->is_dense = true;

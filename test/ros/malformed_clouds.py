@@ -131,7 +131,7 @@ CORPUS = [
     ("x = 1e20", _far(1e20), "point 4 has x = 1e+20 m, beyond the front end's bound"),
     ("x = -2e6", _far(-2e6), "point 4 has x = -2e+06 m, beyond the front end's bound"),
     ("big-endian y = -3e38", _garbage_big_endian, "point 5 has y = -3e+38 m"),
-    ("all NaN", lambda f: xyz_cloud([(NAN, NAN, NAN), (NAN, 0.0, 0.0), (0.0, NAN, 1.0)], f), "0 finite points"),
+    ("all NaN", lambda f: xyz_cloud([(NAN, NAN, NAN), (NAN, 0.0, 0.0), (0.0, NAN, 1.0)], f), "0 of its 3 points are finite"),
     ("one point", lambda f: xyz_cloud([(1.0, 2.0, 3.0)], f), "1 finite points"),
     ("two points", lambda f: xyz_cloud([(1.0, 2.0, 3.0), (2.0, 2.0, 3.0)], f), "2 finite points"),
     ("empty", lambda f: xyz_cloud([], f), "empty cloud"),

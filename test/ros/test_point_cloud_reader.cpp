@@ -146,10 +146,18 @@ TEST(PointCloudReader, RefusesHugeCoordinatesAndCountsNonFinitePoints) {
     EXPECT_NE(c.error.find("bound of +-1e+06 m"), std::string::npos) << c.error;
   }
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  // A cloud of non-finite points is refused with its own size, not as an empty cloud ("0 of 0").
   const CloudConversion all_nan = toPointCloud(xyzCloud({{nan, nan, nan}, {nan, 0, 0}, {0, inf, 0}}));
-  ASSERT_TRUE(all_nan.cloud) << all_nan.error;
-  EXPECT_EQ(all_nan.cloud->size(), 0u);
+  EXPECT_FALSE(all_nan.cloud);
   EXPECT_EQ(all_nan.dropped_non_finite, 3u);
+  EXPECT_NE(all_nan.error.find("0 of its 3 points are finite"), std::string::npos) << all_nan.error;
+  const CloudConversion two_finite =
+      toPointCloud(xyzCloud({{nan, nan, nan}, {1, 2, 3}, {4, 5, 6}, {0, inf, 0}}));
+  EXPECT_NE(two_finite.error.find("2 of its 4 points are finite"), std::string::npos) << two_finite.error;
+  const CloudConversion some_nan = toPointCloud(xyzCloud({{nan, nan, nan}, {1, 2, 3}, {4, 5, 6}, {7, 8, 9}}));
+  ASSERT_TRUE(some_nan.cloud) << some_nan.error;
+  EXPECT_EQ(some_nan.cloud->size(), 3u);
+  EXPECT_EQ(some_nan.dropped_non_finite, 1u);
   // The bound itself is allowed.
   expectPoints(toPointCloud(xyzCloud({{1e6f, -1e6f, 0}})), {{1e6f, -1e6f, 0}});
 }
