@@ -152,6 +152,17 @@ Parameter choice(std::string key, Field field, const Names<Enum>& names, std::st
   return p;
 }
 
+// A real whose 0 may be written "auto" (a value the registration derives from the data).
+Parameter autoDerived(Parameter p) {
+  p.zero_means_auto = true;
+  auto set = p.set;
+  p.set = [set](Config& c, const ParameterValue& v) {
+    const auto* text = std::get_if<std::string>(&v);
+    set(c, text && *text == "auto" ? ParameterValue(0.0) : v);
+  };
+  return p;
+}
+
 // A generic accessor: the same lambda reads a const config and writes a mutable one.
 #define MAC_FIELD(path) \
   [](auto& c) -> auto& { return c.path; }
@@ -160,10 +171,10 @@ std::vector<Parameter> makeTable() {
   return {
       choice("graph.score", MAC_FIELD(mac.graph.score), kScores,
              "compatibility score of the rigidity residual: gaussian (paper Eq. 2) or quadratic"),
-      real("graph.gaussian_sigma", MAC_FIELD(mac.graph.gaussian_sigma), "m", 0.0, kInf,
-           "d_cmp of the Gaussian score; the paper uses 10 x cloud resolution"),
-      real("graph.quadratic_threshold", MAC_FIELD(mac.graph.quadratic_threshold), "m", 0.0, kInf,
-           "tau of the quadratic score"),
+      autoDerived(real("graph.gaussian_sigma", MAC_FIELD(mac.graph.gaussian_sigma), "m", 0.0, kInf,
+                       "d_cmp of the Gaussian score; the paper uses 10 x cloud resolution")),
+      autoDerived(real("graph.quadratic_threshold", MAC_FIELD(mac.graph.quadratic_threshold), "m", 0.0, kInf,
+                       "tau of the quadratic score; auto = 2 x features.voxel_size")),
       real("graph.t_cmp", MAC_FIELD(mac.graph.t_cmp), "", 0.0, 1.0,
            "edge where the score >= t_cmp (open interval); higher = sparser graph"),
       boolean("graph.second_order", MAC_FIELD(mac.graph.second_order),
@@ -202,8 +213,9 @@ std::vector<Parameter> makeTable() {
              "equal (instance-equal SVD) or eigenvector (weighted SVD)"),
       choice("evaluation.metric", MAC_FIELD(mac.evaluation.metric), kMetrics,
              "hypothesis score: mae (paper default), mse or inlier_count"),
-      real("evaluation.inlier_threshold", MAC_FIELD(mac.evaluation.inlier_threshold), "m", 0.0, kInf,
-           "tau: residual below which a correspondence is an inlier (> 0)"),
+      autoDerived(real(
+          "evaluation.inlier_threshold", MAC_FIELD(mac.evaluation.inlier_threshold), "m", 0.0, kInf,
+          "tau: residual below which a correspondence is an inlier (> 0); auto = 2 x features.voxel_size")),
       count("evaluation.min_inliers", MAC_FIELD(mac.evaluation.min_inliers), "correspondences", 3, kInf,
             "fewest inliers for a success"),
       boolean("refinement.enabled", MAC_FIELD(mac.refinement.enabled), "reweighted-SVD refinement"),
@@ -218,8 +230,10 @@ std::vector<Parameter> makeTable() {
            "a rival pose moves the source points more than this many tau (RMS) from the reported one (> 0)"),
       count("verification.max_alternatives", MAC_FIELD(mac.verification.max_alternatives), "poses", 0, 10,
             "distinct competing poses reported with the result"),
-      real("features.voxel_size", MAC_FIELD(features.voxel_size), "m", 0.0, kInf,
-           "voxel grid leaf: the keypoint spacing and the unit of the radii (> 0)"),
+      autoDerived(real("features.voxel_size", MAC_FIELD(features.voxel_size), "m", 0.0, kInf,
+                       "voxel grid leaf: the keypoint spacing and the unit of the radii (> 0); auto = the "
+                       "leaf that leaves "
+                       "about 5000 keypoints")),
       real("features.normal_radius_factor", MAC_FIELD(features.normal_radius_factor), "x voxel_size", 0.0,
            kInf, "normal estimation radius (> 0)"),
       real("features.feature_radius_factor", MAC_FIELD(features.feature_radius_factor), "x voxel_size", 0.0,
@@ -284,6 +298,7 @@ ParameterValue parseParameterValue(const Parameter& parameter, const std::string
   const auto refuse = [&](const std::string& what) {
     return std::invalid_argument(parameter.key + ": '" + text + "' is not " + what);
   };
+  if (parameter.zero_means_auto && text == "auto") return 0.0;
   switch (parameter.type) {
     case ParameterType::kBool:
       if (text == "true" || text == "1") return true;
@@ -339,7 +354,13 @@ void applyAssignment(RegistrationConfig& config, const std::string& assignment) 
 }
 
 std::vector<std::string> validateConfig(const RegistrationConfig& config) {
-  std::vector<std::string> problems = validateParams(config.mac);
+  // An auto distance stands for a positive one here; its own range is >= 0.
+  MacParams mac = config.mac;
+  for (double* distance :
+       {&mac.graph.gaussian_sigma, &mac.graph.quadratic_threshold, &mac.evaluation.inlier_threshold}) {
+    if (*distance == 0.0) *distance = 1.0;
+  }
+  std::vector<std::string> problems = validateParams(mac);
   for (auto& p : validateFeatureParams(config.features)) problems.push_back(std::move(p));
   return problems;
 }
@@ -347,7 +368,10 @@ std::vector<std::string> validateConfig(const RegistrationConfig& config) {
 std::string describeConfig(const RegistrationConfig& config) {
   std::ostringstream text;
   for (const auto& p : parameterTable()) {
-    text << (text.tellp() > 0 ? "\n" : "") << "  " << p.key << " = " << formatParameterValue(p.get(config));
+    const ParameterValue value = p.get(config);
+    const bool automatic = p.zero_means_auto && std::get<double>(value) == 0.0;
+    text << (text.tellp() > 0 ? "\n" : "") << "  " << p.key << " = "
+         << (automatic ? std::string("auto") : formatParameterValue(value));
     if (!p.unit.empty()) text << " [" << p.unit << "]";
   }
   return text.str();

@@ -17,6 +17,13 @@ class Checker {
   void positive(const std::string& name, double value) {
     require(std::isfinite(value) && value > 0.0, name, value, "> 0");
   }
+  // A distance that a cloud registration derives from features.voxel_size when it is 0 (auto): the core
+  // sees only correspondences, so here it must be a distance.
+  void distance(const std::string& name, double value) {
+    require(std::isfinite(value) && value > 0.0, name, value,
+            "> 0 (0 = auto, derived from features.voxel_size, applies to clouds only: give the distance in "
+            "metres to register correspondences)");
+  }
   std::vector<std::string> problems() const { return problems_; }
 
  private:
@@ -27,8 +34,8 @@ class Checker {
 
 std::vector<std::string> validateParams(const MacParams& p) {
   Checker check;
-  check.positive("graph.gaussian_sigma [m]", p.graph.gaussian_sigma);
-  check.positive("graph.quadratic_threshold [m]", p.graph.quadratic_threshold);
+  check.distance("graph.gaussian_sigma [m]", p.graph.gaussian_sigma);
+  check.distance("graph.quadratic_threshold [m]", p.graph.quadratic_threshold);
   check.require(p.graph.t_cmp > 0.0 && p.graph.t_cmp < 1.0, "graph.t_cmp", p.graph.t_cmp,
                 "in (0, 1); 0.99 is the paper's default, lower it for few or very noisy correspondences");
   check.require(p.graph.max_correspondences == 0 || p.graph.max_correspondences >= 1000,
@@ -57,7 +64,7 @@ std::vector<std::string> validateParams(const MacParams& p) {
       p.selection.normal_consistency_threshold > 0.0 && p.selection.normal_consistency_threshold <= 1.0,
       "selection.normal_consistency_threshold", p.selection.normal_consistency_threshold, "in (0, 1]");
 
-  check.positive("evaluation.inlier_threshold [m]", p.evaluation.inlier_threshold);
+  check.distance("evaluation.inlier_threshold [m]", p.evaluation.inlier_threshold);
   check.require(p.evaluation.min_inliers >= 3, "evaluation.min_inliers", double(p.evaluation.min_inliers),
                 ">= 3");
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <limits>
 #include <sstream>
@@ -81,19 +82,61 @@ std::shared_ptr<const DescriptorIndex> indexOf(const DescribedCloud& cloud) {
   return std::make_shared<const DescriptorIndex>(cloud.descriptors);
 }
 
+// The number of voxels of leaf `voxel` that hold a point of `finite`.
+std::size_t occupiedVoxels(const PointCloud& finite, double voxel) {
+  std::vector<std::uint64_t> keys;
+  keys.reserve(finite.size());
+  const auto cell = [voxel](float v) {
+    return std::uint64_t(std::int64_t(std::floor(v / voxel)) & 0x1fffff);
+  };
+  for (const auto& p : finite) keys.push_back(cell(p.x) << 42 | cell(p.y) << 21 | cell(p.z));
+  std::sort(keys.begin(), keys.end());
+  return std::size_t(std::unique(keys.begin(), keys.end()) - keys.begin());
+}
+
+// `params` with its auto voxel size (0) replaced by `voxel`.
+FeatureParams withVoxel(FeatureParams params, double voxel) {
+  if (params.voxel_size == 0.0) params.voxel_size = voxel;
+  return params;
+}
+
 }  // namespace
+
+double autoVoxelSize(const PointCloud& cloud) {
+  std::size_t dropped = 0;
+  const PointCloud::Ptr finite = finitePoints(cloud, dropped);
+  if (finite->size() < 3) return 0.0;
+  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max()), high = -low;
+  for (const auto& p : *finite) {
+    low = low.min(p.getArray3fMap());
+    high = high.max(p.getArray3fMap());
+  }
+  const double diagonal = (high - low).matrix().norm();
+  if (!(diagonal > 0.0)) return 0.0;
+  const double wanted = double(std::min(kAutoVoxelKeypoints, std::max<std::size_t>(1, finite->size() / 2)));
+  // A surface holds voxels in proportion to 1 / leaf^2, so each step scales the leaf by the square root of
+  // the miss; three steps from a hundredth of the diagonal land within a few per cent on scans, objects
+  // and rooms alike. The leaf never goes below a millionth of the diagonal (the 21-bit keys above).
+  double voxel = diagonal / 100.0;
+  for (int step = 0; step < 3; ++step) {
+    const double occupied = double(occupiedVoxels(*finite, voxel));
+    voxel = std::max(diagonal * 1e-6, voxel * std::sqrt(occupied / wanted));
+  }
+  return voxel;
+}
 
 bool resolutionNeeded(const FeatureParams& params) { return params.gaussian_sigma_resolutions > 0.0; }
 
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params) {
-  return cloud.params.voxel_size == params.voxel_size &&
+  return (params.voxel_size == 0.0 || cloud.params.voxel_size == params.voxel_size) &&
          cloud.params.normal_radius_factor == params.normal_radius_factor &&
          cloud.params.feature_radius_factor == params.feature_radius_factor &&
          cloud.params.support_voxel_factor == params.support_voxel_factor;
 }
 
-DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role) {
-  throwIfInvalid(params);
+DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& given, const std::string& role) {
+  throwIfInvalid(given);
+  const FeatureParams params = withVoxel(given, given.voxel_size == 0.0 ? autoVoxelSize(cloud) : 0.0);
   DescribedCloud out;
   out.params = params;
   out.points = cloud.size();
@@ -161,7 +204,7 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& param
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const DescribedCloud& t,
                                             const FeatureParams& params) {
   throwIfInvalid(params);
-  if (!describedWith(s, params) || !describedWith(t, params)) {
+  if (!describedWith(s, params) || !describedWith(t, params) || s.params.voxel_size != t.params.voxel_size) {
     throw std::invalid_argument(
         "the clouds were described with other voxel_size, radius or support factors than these");
   }
@@ -176,6 +219,7 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   stats.source_no_feature = s.no_feature;
   stats.target_no_feature = t.no_feature;
   stats.resolution = 0.5 * (s.resolution + t.resolution);
+  stats.voxel_size = t.params.voxel_size;
   stats.resolution_ms = s.resolution_ms + t.resolution_ms;
   stats.downsample_ms = s.downsample_ms + t.downsample_ms;
   stats.normals_ms = s.normals_ms + t.normals_ms;
@@ -216,16 +260,27 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
 }
 
 FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
-                                              const FeatureParams& params) {
+                                              const FeatureParams& given) {
+  // One leaf for both clouds (their descriptors must be comparable): the coarser, so that neither holds
+  // more keypoints than the budget.
+  const FeatureParams params = given.voxel_size == 0.0
+                                   ? withVoxel(given, std::max(autoVoxelSize(source), autoVoxelSize(target)))
+                                   : given;
   return matchDescribedClouds(describeCloud(source, params, "source"),
                               describeCloud(target, params, "target"), params);
 }
 
-MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& feature_params,
-                              double resolution) {
+MacParams inCloudUnits(const MacParams& mac_params, const FeatureParams& feature_params,
+                       const FrontEndStats& stats) {
   MacParams params = mac_params;
-  if (feature_params.gaussian_sigma_resolutions > 0.0 && resolution > 0.0)
-    params.graph.gaussian_sigma = feature_params.gaussian_sigma_resolutions * resolution;
+  if (feature_params.gaussian_sigma_resolutions > 0.0 && stats.resolution > 0.0)
+    params.graph.gaussian_sigma = feature_params.gaussian_sigma_resolutions * stats.resolution;
+  const auto derive = [&](double& distance, double voxels) {
+    if (distance == 0.0) distance = voxels * stats.voxel_size;
+  };
+  derive(params.graph.gaussian_sigma, kGaussianSigmaVoxels);
+  derive(params.graph.quadratic_threshold, kQuadraticThresholdVoxels);
+  derive(params.evaluation.inlier_threshold, kInlierThresholdVoxels);
   return params;
 }
 
@@ -257,7 +312,7 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
     return fail(RegistrationStatus::kInternalError, std::string("front end failed: ") + e.what());
   }
   if (stopRequested(stop)) return fail(RegistrationStatus::kCancelled, "cancelled after the front end");
-  const MacParams params = withResolutionUnits(mac_params, feature_params, result.features.stats.resolution);
+  const MacParams params = inCloudUnits(mac_params, feature_params, result.features.stats);
   registration = registerCorrespondences(result.features.correspondences, params, stop);
   verifyAlignment(result.features, params, registration);
   return result;
@@ -275,11 +330,11 @@ CloudRegistrationResult registerClouds(const PointCloud& source, const PointClou
 CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
                                                  const FeatureParams& feature_params,
                                                  const MacParams& mac_params, const StopFlag* stop) {
+  // An auto voxel size follows the target, described before the source was known.
+  const FeatureParams params = withVoxel(feature_params, target.params.voxel_size);
   return registerWith(
-      [&] {
-        return matchDescribedClouds(describeCloud(source, feature_params, "source"), target, feature_params);
-      },
-      feature_params, mac_params, stop);
+      [&] { return matchDescribedClouds(describeCloud(source, params, "source"), target, params); }, params,
+      mac_params, stop);
 }
 
 }  // namespace mac_registration

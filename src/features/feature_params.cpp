@@ -19,7 +19,8 @@ std::vector<std::string> validateFeatureParams(const FeatureParams& p) {
   const auto check = [&](bool ok, const char* name, double value, const char* range) {
     if (!ok) problems.push_back(describe(name, value, range));
   };
-  check(std::isfinite(p.voxel_size) && p.voxel_size > 0.0, "voxel_size", p.voxel_size, "> 0 [m]");
+  check(std::isfinite(p.voxel_size) && p.voxel_size >= 0.0, "voxel_size", p.voxel_size,
+        "> 0 [m], or 0 (auto)");
   check(std::isfinite(p.normal_radius_factor) && p.normal_radius_factor > 0.0, "normal_radius_factor",
         p.normal_radius_factor, "> 0");
   // FPFH histograms pairs of neighbours by their normals: a support no wider than the normals' own gives

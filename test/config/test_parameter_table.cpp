@@ -70,8 +70,8 @@ TEST(ParameterTable, DocumentedBoundsAreTheValidatorsBounds) {
       EXPECT_TRUE(mentions(problemsAt(p.max + step), name)) << p.key << " above";
       EXPECT_FALSE(mentions(problemsAt(whole ? p.max : p.max - step), name)) << p.key << " at its maximum";
     }
-    if (p.zero_means_off) {
-      EXPECT_FALSE(mentions(problemsAt(0.0), name)) << p.key << " = 0 (off)";
+    if (p.zero_means_off || p.zero_means_auto) {
+      EXPECT_FALSE(mentions(problemsAt(0.0), name)) << p.key << " = 0 (off or auto)";
     }
   }
 }
@@ -128,6 +128,27 @@ TEST(Presets, OutdoorPresetIsReadWhole) {
   EXPECT_EQ(config.mac.graph.score, CompatibilityScore::kQuadratic);
   EXPECT_EQ(config.mac.cliques.min_clique_size, 4);
   EXPECT_TRUE(validateConfig(config).empty());
+}
+
+// One setting for every scale: the voxel size and the distances derived from it are "auto" (0).
+TEST(Presets, ObjectPresetDerivesItsDistances) {
+  RegistrationConfig config;
+  loadPresetFile(config, configPath("object_scan.yaml"));
+  EXPECT_EQ(config.features.voxel_size, 0.0);
+  EXPECT_EQ(config.mac.graph.gaussian_sigma, 0.0);
+  EXPECT_EQ(config.mac.graph.quadratic_threshold, 0.0);
+  EXPECT_EQ(config.mac.evaluation.inlier_threshold, 0.0);
+  EXPECT_TRUE(validateConfig(config).empty());
+  const std::string text = describeConfig(config);
+  EXPECT_NE(text.find("features.voxel_size = auto [m]"), std::string::npos) << text;
+  EXPECT_NE(text.find("evaluation.inlier_threshold = auto [m]"), std::string::npos) << text;
+  // By hand: one number, and "auto" back; words other than auto are still refused.
+  applyAssignment(config, "features.voxel_size=0.003");
+  EXPECT_DOUBLE_EQ(config.features.voxel_size, 0.003);
+  setParameter(config, "features.voxel_size", ParameterValue(std::string("auto")));
+  EXPECT_EQ(config.features.voxel_size, 0.0);
+  EXPECT_THROW(applyAssignment(config, "features.voxel_size=big"), std::invalid_argument);
+  EXPECT_THROW(applyAssignment(config, "graph.t_cmp=auto"), std::invalid_argument);
 }
 
 TEST(Presets, OtherSectionsGoToTheirOwnReader) {

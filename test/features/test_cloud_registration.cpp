@@ -9,11 +9,13 @@
 #include <thread>
 #include <vector>
 
+#include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 #include "mac_registration/features/feature_matching.hpp"
+#include "mac_registration/features/voxel_downsampling.hpp"
 
 namespace mac_registration {
 namespace {
@@ -326,14 +328,63 @@ TEST(RealPair, ApproximateMatchingKeepsItsBoundAndNearlyAllExactMatches) {
   for (std::size_t k = 0; k < one_thread.size(); ++k) EXPECT_EQ(one_thread[k].target, approximate[k].target);
 }
 
-TEST(ResolutionUnits, ScaleTheGaussianSigmaOnlyWhenAsked) {
+TEST(CloudUnits, ScaleTheGaussianSigmaOnlyWhenAsked) {
   MacParams mac;
   mac.graph.gaussian_sigma = 0.05;
   FeatureParams features;
-  EXPECT_EQ(withResolutionUnits(mac, features, 0.01).graph.gaussian_sigma, 0.05);
+  FrontEndStats stats;
+  stats.resolution = 0.01;
+  stats.voxel_size = 0.05;
+  EXPECT_EQ(inCloudUnits(mac, features, stats).graph.gaussian_sigma, 0.05);
   features.gaussian_sigma_resolutions = 10.0;
-  EXPECT_DOUBLE_EQ(withResolutionUnits(mac, features, 0.01).graph.gaussian_sigma, 0.1);
-  EXPECT_EQ(withResolutionUnits(mac, features, 0.0).graph.gaussian_sigma, 0.05);  // no resolution known
+  EXPECT_DOUBLE_EQ(inCloudUnits(mac, features, stats).graph.gaussian_sigma, 0.1);
+  stats.resolution = 0.0;  // no resolution known
+  EXPECT_EQ(inCloudUnits(mac, features, stats).graph.gaussian_sigma, 0.05);
+}
+
+TEST(CloudUnits, AutoDistancesFollowTheVoxelSizeAndGivenOnesStay) {
+  MacParams mac;
+  mac.graph.gaussian_sigma = 0.0;
+  mac.graph.quadratic_threshold = 0.0;
+  mac.evaluation.inlier_threshold = 0.0;
+  FrontEndStats stats;
+  stats.voxel_size = 0.003;
+  const MacParams derived = inCloudUnits(mac, FeatureParams{}, stats);
+  EXPECT_DOUBLE_EQ(derived.graph.gaussian_sigma, kGaussianSigmaVoxels * 0.003);
+  EXPECT_DOUBLE_EQ(derived.graph.quadratic_threshold, kQuadraticThresholdVoxels * 0.003);
+  EXPECT_DOUBLE_EQ(derived.evaluation.inlier_threshold, kInlierThresholdVoxels * 0.003);
+  EXPECT_TRUE(validateParams(derived).empty());
+  // The core alone cannot derive them, and says how to give them.
+  const auto problems = validateParams(mac);
+  ASSERT_EQ(problems.size(), 3u);
+  EXPECT_NE(problems[0].find("0 = auto, derived from features.voxel_size"), std::string::npos) << problems[0];
+  mac.evaluation.inlier_threshold = 0.25;
+  EXPECT_EQ(inCloudUnits(mac, FeatureParams{}, stats).evaluation.inlier_threshold, 0.25);
+}
+
+// One scan at three scales, and a sparse copy of it: the auto leaf leaves about the budget of keypoints
+// (or half the points of a small cloud) whatever the unit, and scales with the cloud.
+TEST(CloudUnits, AutoVoxelSizeLeavesAboutTheKeypointBudgetAtAnyScale) {
+  const PointCloud::Ptr room = loadCloud(demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd"));
+  PointCloud sparse;
+  for (std::size_t i = 0; i < room->size(); i += 8) sparse.push_back((*room)[i]);
+  for (const PointCloud* cloud : {room.get(), &sparse}) {
+    const double wanted = double(std::min(kAutoVoxelKeypoints, cloud->size() / 2));
+    for (const double scale : {0.05, 1.0, 20.0}) {
+      PointCloud scaled = *cloud;
+      for (auto& p : scaled) p.getVector3fMap() *= float(scale);
+      const double voxel = autoVoxelSize(scaled);
+      const std::size_t keypoints = voxelDownsample(scaled, voxel, 1)->size();
+      // Three square-root steps land within a few per cent on a surface; near the point spacing (the
+      // sparse copy) the count no longer grows as 1 / leaf^2 and the steps stop short (measured: 18 %).
+      const double tolerance = cloud == room.get() ? 0.1 : 0.25;
+      EXPECT_NEAR(double(keypoints), wanted, tolerance * wanted) << cloud->size() << " points x " << scale;
+      EXPECT_NEAR(voxel / scale, autoVoxelSize(*cloud), 1e-3 * autoVoxelSize(*cloud)) << scale;
+    }
+  }
+  PointCloud nan_only;
+  nan_only.push_back(pcl::PointXYZ(NAN, 0, 0));
+  EXPECT_EQ(autoVoxelSize(nan_only), 0.0);
 }
 
 // What matching did before the descriptor index: a new tree over each side for every match, and every

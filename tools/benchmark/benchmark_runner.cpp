@@ -105,7 +105,7 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
   prepared.target_points = s.target_points;
   prepared.correspondences = features->correspondences;
   // The same parameters registerClouds() would use.
-  prepared.mac = withResolutionUnits(settings.mac, settings.features, s.resolution);
+  prepared.mac = inCloudUnits(settings.mac, settings.features, s);
   if (settings.cloud_verification) {
     prepared.verify_with_clouds = [features, mac = prepared.mac](MacResult& result) {
       verifyAlignment(*features, mac, result);
@@ -135,7 +135,7 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
   outcome.target_points = prepared.target_points;
   outcome.correspondences = correspondences.size();
   outcome.inlier_ratio =
-      inlierRatio(correspondences, pair.T_target_source_gt, settings.mac.evaluation.inlier_threshold);
+      inlierRatio(correspondences, pair.T_target_source_gt, prepared.mac.evaluation.inlier_threshold);
 
   outcome.methods.push_back(
       outcomeOf("MAC", prepared.registerSet(correspondences), pair.T_target_source_gt, settings.criterion));
@@ -143,7 +143,7 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
 #ifdef MAC_REGISTRATION_WITH_FEATURES
   if (settings.baseline) {
     RansacParams ransac;
-    ransac.inlier_threshold = settings.mac.evaluation.inlier_threshold;
+    ransac.inlier_threshold = prepared.mac.evaluation.inlier_threshold;
     ransac.min_inliers = settings.mac.evaluation.min_inliers;
     ransac.max_iterations = settings.ransac_max_iterations;
     outcome.methods.push_back(outcomeOf("RANSAC", registerCorrespondencesRansac(correspondences, ransac),

@@ -40,6 +40,9 @@ struct Parameter {
   // the doc says so (zero_means_off).
   double min = 0.0, max = 0.0;
   bool zero_means_off = false;
+  // 0 may also be written "auto" and means a value derived from the data (the doc says how); the table
+  // shows it as "auto".
+  bool zero_means_auto = false;
   std::vector<std::string> choices;  // kChoice only
   std::string doc;                   // one line: what it does and which way to turn it
   std::function<ParameterValue(const RegistrationConfig&)> get;
@@ -72,6 +75,8 @@ void applyAssignment(RegistrationConfig& config, const std::string& assignment);
 
 // Every problem with the configuration, each a sentence naming the parameter, its value and the allowed
 // range (validateParams() of the core and validateFeatureParams() of the front end); empty when usable.
+// The core's distances may be auto (0) here: a cloud registration derives them from the voxel size, and
+// the core refuses them only when it is given correspondences alone.
 std::vector<std::string> validateConfig(const RegistrationConfig& config);
 
 // Every parameter as "key = value [unit]", one per line, for a start-up log.

@@ -18,8 +18,9 @@ struct GraphParams {
   CompatibilityScore score = CompatibilityScore::kGaussian;
   // d_cmp [m], > 0. The paper uses 10 x cloud resolution; correspondence-only callers give it in metres.
   // 0.05 suits 3DMatch-like indoor FPFH matches (sparse graph, full recall on the shipped real set).
+  // A cloud registration takes 0 as auto: kGaussianSigmaVoxels x features.voxel_size.
   double gaussian_sigma = 0.05;
-  // tau_g [m], > 0, for the quadratic score.
+  // tau_g [m], > 0, for the quadratic score; with clouds 0 = auto (kQuadraticThresholdVoxels x voxel).
   double quadratic_threshold = 0.1;
   // t_cmp, in (0, 1): an edge exists where S >= t_cmp. Higher = sparser graph. Paper default 0.99.
   double t_cmp = 0.99;
@@ -101,6 +102,7 @@ enum class ScoreMetric {
 struct EvaluationParams {
   ScoreMetric metric = ScoreMetric::kMAE;
   // tau [m], > 0: a correspondence is an inlier when |R s + t - t_target| < tau. 0.1 indoors, 0.6 KITTI.
+  // A cloud registration takes 0 as auto: kInlierThresholdVoxels x features.voxel_size.
   double inlier_threshold = 0.1;
   // Fewest inliers for the result to count as a success [count], >= 3.
   std::size_t min_inliers = 3;

@@ -26,6 +26,7 @@ struct FrontEndStats {
   // [m] mean nearest-neighbour distance of the given clouds, averaged over both; 0 when not estimated
   // (see resolutionNeeded).
   double resolution = 0.0;
+  double voxel_size = 0.0;  // [m] the leaf both clouds were described with (features.voxel_size resolved)
   double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0, matching_ms = 0.0;
   double totalMs() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
 };
@@ -76,17 +77,17 @@ bool resolutionNeeded(const FeatureParams& params);
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role);
 
 // Whether `cloud` was described with the voxel size, radii and support factor of `params` (what its
-// descriptors depend on).
+// descriptors depend on); with voxel_size auto (0), any voxel size.
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params);
 
 // Matches two described clouds. Throws std::invalid_argument when they were described with different
-// voxel sizes, radii or support factors.
+// voxel sizes, radii or support factors, or with other ones than `params` holds.
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
                                             const FeatureParams& params);
 
-// Clouds in (any frame each, may hold NaNs, may be organized), correspondences out: describeCloud on both,
-// then matchDescribedClouds. Throws std::invalid_argument for invalid params or a cloud with fewer than 3
-// finite points.
+// Clouds in (any frame each, may hold NaNs, may be organized), correspondences out: describeCloud on both
+// (with voxel_size auto, the coarser of their autoVoxelSize), then matchDescribedClouds. Throws
+// std::invalid_argument for invalid params or a cloud with fewer than 3 finite points.
 FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
                                               const FeatureParams& params);
 
@@ -95,10 +96,17 @@ struct CloudRegistrationResult {
   FeatureCorrespondences features;
 };
 
-// graph.gaussian_sigma in metres from FeatureParams::gaussian_sigma_resolutions and a resolution [m];
-// the parameters unchanged when that factor is 0 or the resolution is not positive.
-MacParams withResolutionUnits(const MacParams& mac_params, const FeatureParams& feature_params,
-                              double resolution);
+// The core's parameters as a cloud registration uses them: graph.gaussian_sigma from
+// features.gaussian_sigma_resolutions x the clouds' resolution when that factor is set (and the resolution
+// was estimated), and each metric distance given as 0 (auto: graph.gaussian_sigma,
+// graph.quadratic_threshold, evaluation.inlier_threshold) from the voxel size the clouds were described
+// with (stats.voxel_size; kGaussianSigmaVoxels and its siblings).
+MacParams inCloudUnits(const MacParams& mac_params, const FeatureParams& feature_params,
+                       const FrontEndStats& stats);
+
+// The voxel size that leaves `cloud` about kAutoVoxelKeypoints keypoints (or half its finite points, for
+// a smaller cloud): features.voxel_size = auto. Deterministic; 0 for fewer than 3 finite points.
+double autoVoxelSize(const PointCloud& cloud);
 
 // Front end then the MAC core. Never throws: invalid feature parameters come back as a failed
 // registration with status kInvalidParameters, unusable clouds with kInvalidInput, each with a message.

@@ -10,7 +10,10 @@ namespace mac_registration {
 // one voxel size, so a preset changes one number for a new sensor. This header holds no PCL type, so
 // that tools built without PCL can still read and write these parameters.
 struct FeatureParams {
-  double voxel_size = 0.05;                // [m], > 0: voxel grid leaf, the keypoint spacing
+  // [m], >= 0: voxel grid leaf, the keypoint spacing. 0 = auto: the leaf that leaves a cloud about
+  // kAutoVoxelKeypoints keypoints (autoVoxelSize), the coarser of the two clouds' when a pair is
+  // registered, the target's when the target was described before.
+  double voxel_size = 0.05;
   double normal_radius_factor = 2.0;       // normal estimation radius = factor x voxel_size, > 0
   double feature_radius_factor = 5.0;      // FPFH radius = factor x voxel_size, > normal_radius_factor
   std::size_t max_correspondences = 5000;  // [count], >= 3: keep the best-matching ones (feature distance)
@@ -35,6 +38,19 @@ struct FeatureParams {
   // more than the queries.
   std::size_t resolution_samples = 20000;
 };
+
+// The keypoints features.voxel_size = auto (0) aims at in a cloud: what the indoor preset's 5 cm leaf
+// leaves in a 3DMatch fragment (4 000-5 500), enough for FPFH to tell surfaces apart, few enough for the
+// matching and the graph to stay in tens of milliseconds.
+constexpr std::size_t kAutoVoxelKeypoints = 5000;
+
+// The metric distances of the core that are derived from the voxel size when given as 0 (auto), in
+// voxel sizes: the indoor preset's measured values at its 5 cm leaf (d_cmp 5 cm, tau 10 cm). A right
+// match pairs two voxel centroids that each lie up to half a voxel diagonal (0.87 voxel) from the
+// surface point they stand for, so an inlier threshold below ~2 voxels loses right matches.
+constexpr double kGaussianSigmaVoxels = 1.0;       // graph.gaussian_sigma
+constexpr double kQuadraticThresholdVoxels = 2.0;  // graph.quadratic_threshold
+constexpr double kInlierThresholdVoxels = 2.0;     // evaluation.inlier_threshold
 
 // Every problem with the parameters as a sentence naming parameter, value and allowed range; empty if usable.
 std::vector<std::string> validateFeatureParams(const FeatureParams& params);
