@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -125,10 +126,37 @@ bool isNumber(const std::string& word) {
 // PCL keeps point counts in int.
 constexpr std::uint64_t kMaxPoints = std::numeric_limits<std::int32_t>::max();
 
+// Text from a file, in quotes, fit for a one-line message: a binary file's bytes would garble the terminal
+// that shows it, so bytes outside printable ASCII appear as \xNN, and text mostly made of them, which the
+// escapes would not make readable, is only summarised. Long text is cut.
+std::string fileText(const std::string& text) {
+  const auto isPrintable = [](unsigned char c) { return c >= 0x20 && c < 0x7f; };
+  const auto unprintable =
+      std::size_t(std::count_if(text.begin(), text.end(), [&](char c) { return !isPrintable(c); }));
+  if (unprintable * 4 > text.size())
+    return "(" + std::to_string(text.size()) + (text.size() == 1 ? " byte" : " bytes") + " of binary data)";
+  constexpr std::size_t kMaxChars = 60;
+  std::string out = "'";
+  for (const char c : text) {
+    if (out.size() > kMaxChars) {
+      out += "...";
+      break;
+    }
+    if (isPrintable(c)) {
+      out += c;
+    } else {
+      char escaped[8];
+      std::snprintf(escaped, sizeof escaped, "\\x%02X", static_cast<unsigned char>(c));
+      out += escaped;
+    }
+  }
+  return out + "'";
+}
+
 std::string joinedWords(const std::vector<std::string>& words) {
   std::string text;
   for (const auto& w : words) text += (text.empty() ? "" : " ") + w;
-  return text.size() > 60 ? text.substr(0, 60) + "..." : text;
+  return fileText(text);
 }
 
 std::uint64_t fileSize(const std::string& path) {
@@ -167,12 +195,13 @@ void parsePcdLine(const std::vector<std::string>& words, PcdHeader& h) {
   const std::string& key = words[0];
   const std::vector<std::string> values(words.begin() + 1, words.end());
   const auto expectOne = [&] {
-    if (values.size() != 1) throw Malformed(key + " needs one value, got '" + joinedWords(values) + "'");
+    if (values.size() != 1) throw Malformed(key + " needs one value, got " + joinedWords(values));
   };
   const auto count = [&](const std::string& word, std::uint64_t max) {
     std::uint64_t n = 0;
     if (!parseCount(word, max, n))
-      throw Malformed(key + " value '" + word + "' is not a whole number from 0 to " + std::to_string(max));
+      throw Malformed(key + " value " + fileText(word) + " is not a whole number from 0 to " +
+                      std::to_string(max));
     return n;
   };
   if (key == "VERSION") {
@@ -182,19 +211,19 @@ void parsePcdLine(const std::vector<std::string>& words, PcdHeader& h) {
     std::set<std::string> seen;
     for (const auto& name : values) {
       // PCL writes padding as fields named "_", possibly several.
-      if (name != "_" && !seen.insert(name).second) throw Malformed("two fields named '" + name + "'");
+      if (name != "_" && !seen.insert(name).second) throw Malformed("two fields named " + fileText(name));
     }
     h.fields = values;
   } else if (key == "SIZE") {
     for (const auto& v : values) {
       const std::uint64_t size = count(v, 8);
       if (size != 1 && size != 2 && size != 4 && size != 8)
-        throw Malformed("SIZE " + v + " is not 1, 2, 4 or 8 bytes");
+        throw Malformed("SIZE " + v + " is not 1, 2, 4 or 8 bytes");  // v is digits: count() checked it
       h.sizes.push_back(size);
     }
   } else if (key == "TYPE") {
     for (const auto& v : values) {
-      if (v != "F" && v != "I" && v != "U") throw Malformed("TYPE '" + v + "' is not F, I or U");
+      if (v != "F" && v != "I" && v != "U") throw Malformed("TYPE " + fileText(v) + " is not F, I or U");
       h.types.push_back(v[0]);
     }
   } else if (key == "COUNT") {
@@ -218,7 +247,7 @@ void parsePcdLine(const std::vector<std::string>& words, PcdHeader& h) {
   } else if (key == "DATA") {
     expectOne();
     if (values[0] != "ascii" && values[0] != "binary" && values[0] != "binary_compressed")
-      throw Malformed("DATA '" + values[0] + "' is not ascii, binary or binary_compressed");
+      throw Malformed("DATA " + fileText(values[0]) + " is not ascii, binary or binary_compressed");
     h.data = values[0];
   }
 }
@@ -233,7 +262,7 @@ void checkPcdFields(PcdHeader& h) {
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (h.types[i] == 'F' && h.sizes[i] != 4 && h.sizes[i] != 8)
-      throw Malformed("field '" + h.fields[i] + "' is F of " + std::to_string(h.sizes[i]) + " bytes");
+      throw Malformed("field " + fileText(h.fields[i]) + " is F of " + std::to_string(h.sizes[i]) + " bytes");
   }
   for (const char* axis : {"x", "y", "z"}) {
     const auto at = std::find(h.fields.begin(), h.fields.end(), axis);
@@ -259,7 +288,7 @@ void checkPcdAsciiBody(LineReader& reader, const PcdHeader& h) {
     }
     for (const auto& word : words) {
       if (!isNumber(word))
-        throw Malformed("line " + std::to_string(reader.line()) + ": '" + word + "' is not a number");
+        throw Malformed("line " + std::to_string(reader.line()) + ": " + fileText(word) + " is not a number");
     }
     ++rows;
   }
@@ -312,8 +341,8 @@ std::uint64_t checkPcdFile(const std::string& path) {
     if (words.empty() || words[0][0] == '#') continue;
     if (!kKeywords.count(words[0])) {
       throw Malformed(
-          "unknown header line " + std::to_string(reader.line()) + " '" + joinedWords(words) +
-          "'; a header has only VERSION FIELDS SIZE TYPE COUNT WIDTH HEIGHT VIEWPOINT POINTS DATA");
+          "unknown header line " + std::to_string(reader.line()) + " " + joinedWords(words) +
+          "; a header has only VERSION FIELDS SIZE TYPE COUNT WIDTH HEIGHT VIEWPOINT POINTS DATA");
     }
     if (!seen.insert(words[0]).second) throw Malformed(words[0] + " appears twice in the header");
     parsePcdLine(words, h);
@@ -346,7 +375,7 @@ std::uint64_t plyScalarBytes(const std::string& type) {
       {"int16", 2}, {"uint16", 2},  {"int", 4},    {"uint", 4},   {"int32", 4}, {"uint32", 4},
       {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
   const auto at = kSizes.find(type);
-  if (at == kSizes.end()) throw Malformed("unknown property type '" + type + "'");
+  if (at == kSizes.end()) throw Malformed("unknown property type " + fileText(type));
   return at->second;
 }
 
@@ -378,13 +407,13 @@ std::uint64_t checkPlyFile(const std::string& path) {
       if (!format.empty()) throw Malformed("two format lines");
       if (words.size() != 3 || words[2] != "1.0" ||
           (words[1] != "ascii" && words[1] != "binary_little_endian" && words[1] != "binary_big_endian"))
-        throw Malformed("format '" + joinedWords(words) +
-                        "' is not ascii, binary_little_endian or binary_big_endian 1.0");
+        throw Malformed("format " + joinedWords(words) +
+                        " is not ascii, binary_little_endian or binary_big_endian 1.0");
       format = words[1];
     } else if (key == "element") {
       PlyElement element;
       if (words.size() != 3 || !parseCount(words[2], kMaxPoints, element.count))
-        throw Malformed("element line '" + joinedWords(words) + "' needs a name and a count" + where);
+        throw Malformed("element line " + joinedWords(words) + " needs a name and a count" + where);
       element.name = words[1];
       elements.push_back(element);
     } else if (key == "property") {
@@ -398,19 +427,20 @@ std::uint64_t checkPlyFile(const std::string& path) {
         element.min_bytes += plyScalarBytes(words[1]);
         element.min_values += 1;
         if (element.scalar_types.count(words[2]))
-          throw Malformed("two properties named '" + words[2] + "' in element '" + element.name + "'");
+          throw Malformed("two properties named " + fileText(words[2]) + " in element " +
+                          fileText(element.name));
         element.scalar_properties.push_back(words[2]);
         element.scalar_types[words[2]] = words[1];
       } else {
-        throw Malformed("property line '" + joinedWords(words) +
-                        "' is not 'property TYPE NAME' or "
+        throw Malformed("property line " + joinedWords(words) +
+                        " is not 'property TYPE NAME' or "
                         "'property list COUNT_TYPE TYPE NAME'" +
                         where);
       }
     } else if (key == "end_header") {
       ended = true;
     } else {
-      throw Malformed("unknown header line '" + joinedWords(words) + "'" + where);
+      throw Malformed("unknown header line " + joinedWords(words) + where);
     }
   }
   if (format.empty()) throw Malformed("no format line");
@@ -431,7 +461,8 @@ std::uint64_t checkPlyFile(const std::string& path) {
     for (; found < needed && reader.next(words);) {
       for (const auto& word : words) {
         if (!isNumber(word))
-          throw Malformed("line " + std::to_string(reader.line()) + ": '" + word + "' is not a number");
+          throw Malformed("line " + std::to_string(reader.line()) + ": " + fileText(word) +
+                          " is not a number");
       }
       found += words.size();
     }

@@ -3,6 +3,7 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -242,6 +243,45 @@ TEST(LoadCloud, RefusesPlyFilesPclWouldMisreadWithTheReason) {
   expectLoadError(
       dir.write("no_format.ply", replaced(plyHeader("ascii", "1"), "format ascii 1.0\n", "") + "1 2 3\n"),
       "no format line");
+}
+
+// Expects loadCloud(path) to refuse the file naming `reason` in a short message of printable ASCII: a binary
+// file's bytes echoed raw would garble the terminal that shows the message.
+void expectPrintableLoadError(const std::string& path, const std::string& reason) {
+  try {
+    loadCloud(path);
+    ADD_FAILURE() << "no error for " << path;
+  } catch (const std::runtime_error& e) {
+    const std::string message = e.what();
+    const auto raw =
+        std::count_if(message.begin(), message.end(), [](unsigned char c) { return c < 0x20 || c >= 0x7f; });
+    EXPECT_EQ(raw, 0) << "raw bytes in the message for " << path;
+    if (raw > 0) return;
+    EXPECT_NE(message.find(reason), std::string::npos) << message;
+    EXPECT_LT(message.size(), path.size() + 300) << message;  // the 5000-byte line is cut
+  }
+}
+
+TEST(LoadCloud, ShowsBinaryBytesInItsMessagesEscapedOrSummarised) {
+  TempDir dir;
+  const std::string binary("\x89\x01\xff\x00\x1b\x02\x03\x04", 8);
+  expectPrintableLoadError(dir.write("binary_line.pcd", asciiPcd(binary + "\n")),
+                           "unknown header line 10 (8 bytes of binary data)");
+  expectPrintableLoadError(dir.write("escape.pcd", asciiPcd("COLOR r\x1b[31med\n")),
+                           "unknown header line 10 'COLOR r\\x1B[31med'");
+  expectPrintableLoadError(dir.write("long.pcd", asciiPcd("COLOR " + std::string(5000, 'r') + "\n")),
+                           "unknown header line 10 'COLOR rrr");
+  expectPrintableLoadError(
+      dir.write("binary_word.pcd", asciiPcd("", "1 2 3\n-4 \x01\x02\x03 6\n7 -8 9.25\n")),
+      "line 12: (3 bytes of binary data) is not a number");
+  expectPrintableLoadError(
+      dir.write("binary_type.pcd", replaced(asciiPcd(""), "TYPE F F F", "TYPE F \x7f F")),
+      "TYPE (1 byte of binary data) is not F, I or U");
+  expectPrintableLoadError(dir.write("binary_line.ply", plyHeader("ascii", "3", binary + "\n") + "1 2 3\n"),
+                           "unknown header line (8 bytes of binary data)");
+  expectPrintableLoadError(
+      dir.write("binary_word.ply", plyHeader("ascii", "3") + "1 2 3\n-4 5.25\xff 6\n7 -8 9.25\n"),
+      "'5.25\\xFF' is not a number");
 }
 
 TEST(LoadCloud, ReadsTheShippedRealPair) {
