@@ -4,9 +4,13 @@
 #include <pcl/io/ply_io.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <sstream>
 #include <string>
 
 #include "mac_registration/features/cloud_filtering.hpp"
@@ -125,7 +129,7 @@ std::string replaced(std::string text, const std::string& old, const std::string
 }
 
 // PCL 1.13 segfaults on an unknown header line and allocates what a garbage count asks for; every such
-// header is refused before PCL reads the file.
+// header is refused.
 TEST(LoadCloud, RefusesPcdHeadersPclWouldMisread) {
   TempDir dir;
   expectThreePoints(*loadCloud(dir.write("good.pcd", asciiPcd(""))));
@@ -137,8 +141,11 @@ TEST(LoadCloud, RefusesPcdHeadersPclWouldMisread) {
                   "3 FIELDS but 2 SIZE");
   expectLoadError(dir.write("size3.pcd", replaced(asciiPcd(""), "SIZE 4 4 4", "SIZE 4 3 4")), "SIZE 3");
   expectLoadError(dir.write("type.pcd", replaced(asciiPcd(""), "TYPE F F F", "TYPE F Q F")), "TYPE 'Q'");
-  expectLoadError(dir.write("int_x.pcd", replaced(asciiPcd(""), "TYPE F F F", "TYPE I F F")),
-                  "field 'x' is not one float");
+  // Integer coordinates are legal in the format: read, as metres like any other.
+  expectThreePoints(*loadCloud(dir.write("int_x.pcd", replaced(asciiPcd(""), "TYPE F F F", "TYPE I F F"))));
+  expectLoadError(dir.write("count_x.pcd", replaced(asciiPcd("", "1 0 2 3\n-4 0 5.5 6\n7 0 -8 9.25\n"),
+                                                    "COUNT 1 1 1", "COUNT 2 1 1")),
+                  "field 'x' holds COUNT 2 values, not one coordinate");
   expectLoadError(dir.write("count0.pcd", replaced(asciiPcd(""), "COUNT 1 1 1", "COUNT 1 0 1")), "COUNT 0");
   expectLoadError(dir.write("negative.pcd", replaced(asciiPcd(""), "WIDTH 3", "WIDTH -3")),
                   "WIDTH value '-3' is not a whole number");
@@ -236,13 +243,207 @@ TEST(LoadCloud, RefusesPlyFilesPclWouldMisreadWithTheReason) {
                   "unknown property type 'quad'");
   expectLoadError(dir.write("format.ply", plyHeader("binary_middle_endian", "3") + "1 2 3\n"),
                   "is not ascii, binary_little_endian or binary_big_endian 1.0");
-  expectLoadError(dir.write("int_x.ply", replaced(plyHeader("ascii", "3"), "float x", "int x") + "1 2 3\n"),
-                  "vertex property 'x' is int, not a float");
+  expectThreePoints(*loadCloud(dir.write(
+      "int_x.ply", replaced(plyHeader("ascii", "3"), "float x", "int x") + "1 2 3\n-4 5.5 6\n7 -8 9.25\n")));
+  expectLoadError(dir.write("list_x.ply", replaced(plyHeader("ascii", "3"), "float x", "list uchar float x") +
+                                              "1 1 2 3\n1 -4 5.5 6\n1 7 -8 9.25\n"),
+                  "no vertex element with x, y and z");
+  expectLoadError(
+      dir.write("float_length.ply", plyHeader("ascii", "1", "property list float int i\n") + "1 2 3 0\n"),
+      "list 'i' has a length of type 'float', not an integer");
   expectLoadError(dir.write("dup.ply", plyHeader("ascii", "3", "property float x\n") + "1 2 3\n"),
                   "two properties named 'x'");
   expectLoadError(
       dir.write("no_format.ply", replaced(plyHeader("ascii", "1"), "format ascii 1.0\n", "") + "1 2 3\n"),
       "no format line");
+}
+
+// A Stanford 3D Scanning Repository range scan (bun045.ply, dragon...): after the vertices, one list a cell
+// of the scanner's grid, empty or naming the vertex seen there. PCL read the grid as an organised cloud.
+std::string rangeScanPly(bool obj_info) {
+  return std::string("ply\nformat ascii 1.0\n") +
+         (obj_info ? "obj_info is_cyberware_data 0\nobj_info num_cols 3\nobj_info num_rows 2\n" : "") +
+         "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "element range_grid 6\nproperty list uchar int vertex_indices\nend_header\n"
+         "1 2 3\n-4 5.5 6\n7 -8 9.25\n1 0\n0\n0\n1 1\n0\n1 2\n";
+}
+
+TEST(LoadCloud, ReadsTheVerticesOfStanfordRangeScans) {
+  TempDir dir;
+  expectThreePoints(*loadCloud(dir.write("bun045.ply", rangeScanPly(true))));
+  expectThreePoints(*loadCloud(dir.write("no_obj_info.ply", rangeScanPly(false))));
+  // The grid disagreeing with its header is still refused: a list longer than the data, a length not a
+  // number.
+  const std::string scan = rangeScanPly(true);
+  expectLoadError(dir.write("cut_grid.ply", scan.substr(0, scan.size() - 6)),
+                  "its data ends inside element 'range_grid' (5 of 6) (truncated?)");
+  expectLoadError(dir.write("long_list.ply", replaced(rangeScanPly(true), "1 2\n", "9 2\n")),
+                  "its data ends inside element 'range_grid' (6 of 6)");
+  expectLoadError(dir.write("bad_length.ply", replaced(rangeScanPly(true), "1 1\n", "1.5 1\n")),
+                  "line 19: list length '1.5' is not a whole number");
+}
+
+// `value`'s bytes in the given byte order (the tests run on little-endian machines).
+template <typename T>
+std::string bytesOf(T value, bool big_endian = false) {
+  std::string bytes(reinterpret_cast<const char*>(&value), sizeof value);
+  if (big_endian) std::reverse(bytes.begin(), bytes.end());
+  return bytes;
+}
+
+// Coordinates that need their decoding right: a fraction, negatives, one beyond what int16 holds.
+const double kDoubles[3][3] = {{0.1, -2.5, 3.0}, {-40000.25, 5.5, 6.0}, {7.0, -8.0, 1e-3}};
+
+void expectDoubles(const PointCloud& cloud) {
+  ASSERT_EQ(cloud.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_FLOAT_EQ(cloud[i].x, float(kDoubles[i][0])) << i;
+    EXPECT_FLOAT_EQ(cloud[i].y, float(kDoubles[i][1])) << i;
+    EXPECT_FLOAT_EQ(cloud[i].z, float(kDoubles[i][2])) << i;
+  }
+}
+
+// PCL's reader made every point the origin; Open3D writes double coordinates by default.
+TEST(LoadCloud, ReadsDoublePrecisionPlyInEveryEncoding) {
+  TempDir dir;
+  const std::string header =
+      "element vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  std::ostringstream ascii;
+  ascii.precision(17);
+  for (const auto& p : kDoubles) ascii << p[0] << " " << p[1] << " " << p[2] << " 255\n";
+  expectDoubles(
+      *loadCloud(dir.write("ascii.ply", "ply\nformat ascii 1.0\n" + header + ascii.str() + "3 0 1 2\n")));
+  for (const bool big_endian : {false, true}) {
+    std::string body;
+    for (const auto& p : kDoubles)
+      body += bytesOf(p[0], big_endian) + bytesOf(p[1], big_endian) + bytesOf(p[2], big_endian) + "\xff";
+    body += "\x03" + bytesOf(std::int32_t(0), big_endian) + bytesOf(std::int32_t(1), big_endian) +
+            bytesOf(std::int32_t(2), big_endian);
+    const std::string format = big_endian ? "binary_big_endian" : "binary_little_endian";
+    expectDoubles(*loadCloud(dir.write(format + ".ply", "ply\nformat " + format + " 1.0\n" + header + body)));
+  }
+}
+
+TEST(LoadCloud, ReadsBinaryPlyOfAnyNumericTypeAndListsBeforeTheVertices) {
+  TempDir dir;
+  // A list element before the vertices must be walked entry by entry to find where they start.
+  const std::string header =
+      "ply\nformat binary_big_endian 1.0\nelement tag 2\nproperty list ushort char text\n"
+      "element vertex 2\nproperty short x\nproperty uchar y\nproperty list uchar float normal\n"
+      "property int z\nend_header\n";
+  const std::string body = bytesOf(std::uint16_t(3), true) + "abc" + bytesOf(std::uint16_t(0), true) +
+                           bytesOf(std::int16_t(-4), true) + "\xc8" + "\x01" + bytesOf(1.0f, true) +
+                           bytesOf(std::int32_t(-70000), true) + bytesOf(std::int16_t(300), true) +
+                           std::string(2, '\0') /* y 0, no normal */ + bytesOf(std::int32_t(9), true);
+  const PointCloud::Ptr cloud = loadCloud(dir.write("mixed.ply", header + body));
+  ASSERT_EQ(cloud->size(), 2u);
+  EXPECT_EQ((*cloud)[0].x, -4.0f);
+  EXPECT_EQ((*cloud)[0].y, 200.0f);
+  EXPECT_EQ((*cloud)[0].z, -70000.0f);
+  EXPECT_EQ((*cloud)[1].x, 300.0f);
+  EXPECT_EQ((*cloud)[1].y, 0.0f);
+  EXPECT_EQ((*cloud)[1].z, 9.0f);
+  expectLoadError(dir.write("cut_list.ply", header + body.substr(0, body.size() - 6)),
+                  "its data ends inside element 'vertex' (2 of 2)");
+}
+
+// A cloud with double x y z and a float intensity, as PCL's writers store it from PCLPointCloud2.
+pcl::PCLPointCloud2 doubleCloud() {
+  pcl::PCLPointCloud2 cloud;
+  for (const char* name : {"x", "y", "z"}) {
+    pcl::PCLPointField field;
+    field.name = name;
+    field.offset = std::uint32_t(8 * cloud.fields.size());
+    field.datatype = pcl::PCLPointField::FLOAT64;
+    field.count = 1;
+    cloud.fields.push_back(field);
+  }
+  pcl::PCLPointField intensity;
+  intensity.name = "intensity";
+  intensity.offset = 24;
+  intensity.datatype = pcl::PCLPointField::FLOAT32;
+  intensity.count = 1;
+  cloud.fields.push_back(intensity);
+  cloud.point_step = 28;
+  cloud.width = 3;
+  cloud.height = 1;
+  cloud.row_step = cloud.point_step * cloud.width;
+  for (const auto& p : kDoubles) {
+    const std::string point = bytesOf(p[0]) + bytesOf(p[1]) + bytesOf(p[2]) + bytesOf(0.5f);
+    cloud.data.insert(cloud.data.end(), point.begin(), point.end());
+  }
+  return cloud;
+}
+
+TEST(LoadCloud, ReadsDoublePrecisionPcdInEveryEncoding) {
+  TempDir dir;
+  pcl::PCDWriter writer;
+  const Eigen::Vector4f origin(1.0f, 2.0f, 3.0f, 0.0f);
+  const Eigen::Quaternionf orientation(0.5f, 0.5f, 0.5f, 0.5f);
+  writer.writeASCII(dir.file("a.pcd"), doubleCloud(), origin, orientation, 17);
+  writer.writeBinary(dir.file("b.pcd"), doubleCloud(), origin, orientation);
+  writer.writeBinaryCompressed(dir.file("c.pcd"), doubleCloud(), origin, orientation);
+  for (const char* name : {"a.pcd", "b.pcd", "c.pcd"}) {
+    SCOPED_TRACE(name);
+    const PointCloud::Ptr cloud = loadCloud(dir.file(name));
+    expectDoubles(*cloud);
+    // VIEWPOINT is where the verification puts the sensor.
+    EXPECT_EQ(cloud->sensor_origin_, origin);
+    EXPECT_EQ(cloud->sensor_orientation_.coeffs(), orientation.coeffs());
+  }
+}
+
+TEST(LoadCloud, KeepsAnOrganisedPcdsGridAndItsNans) {
+  TempDir dir;
+  PointCloud grid(2, 3, pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  grid(1, 0) = pcl::PointXYZ(nan, nan, nan);
+  grid(0, 2).z = nan;
+  grid.is_dense = false;
+  pcl::io::savePCDFileBinary(dir.file("b.pcd"), grid);
+  pcl::PCDWriter().writeBinaryCompressed(dir.file("c.pcd"), grid);
+  pcl::io::savePCDFileASCII(dir.file("a.pcd"), grid);
+  for (const char* name : {"a.pcd", "b.pcd", "c.pcd"}) {
+    SCOPED_TRACE(name);
+    const PointCloud::Ptr cloud = loadCloud(dir.file(name));
+    EXPECT_EQ(cloud->width, 2u);
+    EXPECT_EQ(cloud->height, 3u);
+    ASSERT_EQ(cloud->size(), 6u);
+    EXPECT_FALSE(cloud->is_dense);
+    EXPECT_TRUE(std::isnan((*cloud)(1, 0).x));
+    EXPECT_TRUE(std::isnan((*cloud)(0, 2).z));
+    EXPECT_EQ((*cloud)(0, 2).y, 2.0f);
+    EXPECT_EQ((*cloud)(1, 2).x, 1.0f);
+  }
+}
+
+// A finite double beyond float's range must not become an infinity, which the front end would drop.
+TEST(LoadCloud, RefusesDoubleCoordinatesBeyondFloatsRange) {
+  TempDir dir;
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
+      "property double z\nend_header\n";
+  expectLoadError(dir.write("far.ply", header + bytesOf(1.0) + bytesOf(-1e300) + bytesOf(1.0)),
+                  "point 0 has y = -3.40282e+38 m, beyond the front end's bound");
+}
+
+TEST(LoadCloud, RefusesCompressedPcdsThatDoNotUnpack) {
+  TempDir dir;
+  pcl::PCDWriter().writeBinaryCompressed(dir.file("z.pcd"), threePoints());
+  std::ifstream in(dir.file("z.pcd"), std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t data = bytes.find("binary_compressed\n") + 18;
+  std::string corrupt = bytes;
+  corrupt[data + 8] = '\xff';  // an LZF back reference before the start of the output
+  expectLoadError(dir.write("corrupt.pcd", corrupt), "does not unpack to its 36 bytes");
+  // A garbage size word must not allocate what it claims: 12 MB from 10 bytes is beyond LZF.
+  const std::string header =
+      "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1000000\nPOINTS 1000000\n"
+      "DATA binary_compressed\n";
+  expectLoadError(dir.write("claims.pcd", header + bytesOf(std::uint32_t(10)) +
+                                              bytesOf(std::uint32_t(12000000)) + std::string(10, '\0')),
+                  "claims 10 compressed bytes unpack to 12000000, more than LZF can");
 }
 
 // Expects loadCloud(path) to refuse the file naming `reason` in a short message of printable ASCII: a binary
