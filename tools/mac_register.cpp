@@ -142,8 +142,15 @@ int main(int argc, char** argv) {
 #ifdef MAC_REGISTRATION_WITH_FEATURES
     CloudRegistrationResult cloud_result;
     try {
-      const PointCloud::Ptr source = loadCloud(options.clouds[0]);
-      const PointCloud::Ptr target = loadCloud(options.clouds[1]);
+      // What a cloud was read despite is shown before the next cloud can fail.
+      const auto load = [](const std::string& path) {
+        std::vector<std::string> warnings;
+        PointCloud::Ptr cloud = loadCloud(path, &warnings);
+        for (const auto& warning : warnings) std::cerr << "mac_register: warning: " << warning << "\n";
+        return cloud;
+      };
+      const PointCloud::Ptr source = load(options.clouds[0]);
+      const PointCloud::Ptr target = load(options.clouds[1]);
       cloud_result = registerClouds(*source, *target, config.features, config.mac);
       if (!options.save_correspondences.empty())
         writeCorrespondences(options.save_correspondences, cloud_result.features.correspondences);

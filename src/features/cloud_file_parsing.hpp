@@ -79,8 +79,8 @@ float toCoordinate(double value);
 bool allFinite(const PointCloud& cloud);
 
 // The readers loadCloud calls once it has checked the path: a cloud of every point the file declares, in
-// its order, or a Malformed error.
-PointCloud::Ptr readPcdFile(const std::string& path);
+// its order, or a Malformed error. `warnings` receives what was read despite a fault of the file.
+PointCloud::Ptr readPcdFile(const std::string& path, std::vector<std::string>& warnings);
 PointCloud::Ptr readPlyFile(const std::string& path);
 
 }  // namespace cloud_file

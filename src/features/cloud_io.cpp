@@ -46,9 +46,10 @@ PointCloud::Ptr loadKittiBin(const std::string& path) {
 }
 
 // A .pcd or .ply file, with the readers' errors naming the file.
-PointCloud::Ptr readCloudFile(const std::string& path, const std::string& extension) {
+PointCloud::Ptr readCloudFile(const std::string& path, const std::string& extension,
+                              std::vector<std::string>& warnings) {
   try {
-    return extension == ".pcd" ? cloud_file::readPcdFile(path) : cloud_file::readPlyFile(path);
+    return extension == ".pcd" ? cloud_file::readPcdFile(path, warnings) : cloud_file::readPlyFile(path);
   } catch (const cloud_file::Malformed& e) {
     throw std::runtime_error("cannot read cloud '" + path + "': not a valid " + extension + " file (" +
                              e.what() + ")");
@@ -60,7 +61,7 @@ PointCloud::Ptr readCloudFile(const std::string& path, const std::string& extens
 
 }  // namespace
 
-PointCloud::Ptr loadCloud(const std::string& path) {
+PointCloud::Ptr loadCloud(const std::string& path, std::vector<std::string>* warnings) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
     throw std::runtime_error("cannot read cloud '" + path + "': no such file");
@@ -69,7 +70,11 @@ PointCloud::Ptr loadCloud(const std::string& path) {
   if (extension == ".bin") {
     cloud = loadKittiBin(path);
   } else if (extension == ".pcd" || extension == ".ply") {
-    cloud = readCloudFile(path, extension);
+    std::vector<std::string> faults;
+    cloud = readCloudFile(path, extension, faults);
+    for (const auto& fault : faults) {
+      if (warnings) warnings->push_back("cloud '" + path + "': " + fault);
+    }
   } else {
     throw std::runtime_error("cannot read cloud '" + path + "': unknown extension '" + extension +
                              "' (expected .pcd, .ply or .bin)");

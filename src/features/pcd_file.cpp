@@ -115,12 +115,36 @@ void parsePcdLine(const std::vector<std::string>& words, PcdHeader& h) {
   }
 }
 
-PcdHeader readPcdHeader(LineReader& reader) {
-  static const std::set<std::string> kKeywords = {"VERSION", "FIELDS", "SIZE",      "TYPE",   "COUNT",
+// The grid of the points: WIDTH x HEIGHT, which must be POINTS. Files of PCD v0.5 name only POINTS (an
+// unorganised cloud of them); SLAM pipelines write WIDTH 0 HEIGHT 0 with POINTS N, which Open3D reads as
+// N unorganised points and so does this, with a warning, because the header is faulty.
+void checkPcdGrid(const std::set<std::string>& seen, PcdHeader& h, std::vector<std::string>& warnings) {
+  if (!seen.count("WIDTH")) {
+    if (seen.count("HEIGHT")) throw Malformed("HEIGHT but no WIDTH line in the header");
+    if (!seen.count("POINTS")) throw Malformed("no WIDTH or POINTS line in the header");
+    h.width = h.points;
+  }
+  const std::uint64_t grid = h.width * h.height;  // both <= 2^31: no overflow
+  if (!seen.count("POINTS")) h.points = grid;
+  if (grid == 0 && h.points > 0) {
+    warnings.push_back("its header says WIDTH " + std::to_string(h.width) + " HEIGHT " +
+                       std::to_string(h.height) + " but POINTS " + std::to_string(h.points) +
+                       " (WIDTH x HEIGHT should be POINTS); read as " + std::to_string(h.points) +
+                       " unorganised points");
+    h.width = h.points;
+    h.height = 1;
+  } else if (grid != h.points) {
+    throw Malformed("WIDTH x HEIGHT = " + std::to_string(h.width) + " x " + std::to_string(h.height) +
+                    " is not POINTS " + std::to_string(h.points));
+  }
+}
+
+PcdHeader readPcdHeader(LineReader& reader, std::vector<std::string>& warnings) {
+  // COLUMNS: an older name of FIELDS, which PCL still reads.
+  static const std::set<std::string> kKeywords = {"VERSION", "FIELDS", "COLUMNS",   "SIZE",   "TYPE", "COUNT",
                                                   "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
   PcdHeader h;
   std::set<std::string> seen;
-  bool points_given = false;
   for (std::vector<std::string> words; h.data.empty();) {
     if (!reader.next(words)) throw Malformed("no header ending in a DATA line");
     if (words.empty() || words[0][0] == '#') continue;
@@ -129,20 +153,22 @@ PcdHeader readPcdHeader(LineReader& reader) {
           "unknown header line " + std::to_string(reader.line()) + " " + joinedWords(words) +
           "; a header has only VERSION FIELDS SIZE TYPE COUNT WIDTH HEIGHT VIEWPOINT POINTS DATA");
     }
+    if (words[0] == "COLUMNS") words[0] = "FIELDS";
     if (!seen.insert(words[0]).second) throw Malformed(words[0] + " appears twice in the header");
     parsePcdLine(words, h);
-    points_given |= words[0] == "POINTS";
   }
   h.body_offset = reader.offset();
-  for (const char* required : {"FIELDS", "SIZE", "TYPE", "WIDTH"}) {
-    if (!seen.count(required)) throw Malformed(std::string("no ") + required + " line in the header");
+  if (!seen.count("FIELDS")) throw Malformed("no FIELDS line in the header");
+  // Older headers have neither; PCL reads every field of them as one float32, and so does this.
+  if (!seen.count("SIZE") && !seen.count("TYPE")) {
+    h.sizes.assign(h.fields.size(), 4);
+    h.kinds.assign(h.fields.size(), ScalarType::kFloat);
+  } else {
+    for (const char* required : {"SIZE", "TYPE"}) {
+      if (!seen.count(required)) throw Malformed(std::string("no ") + required + " line in the header");
+    }
   }
-  const std::uint64_t grid = h.width * h.height;  // both <= 2^31: no overflow
-  if (!points_given) h.points = grid;
-  if (grid != h.points) {
-    throw Malformed("WIDTH x HEIGHT = " + std::to_string(h.width) + " x " + std::to_string(h.height) +
-                    " is not POINTS " + std::to_string(h.points));
-  }
+  checkPcdGrid(seen, h, warnings);
   return h;
 }
 
@@ -286,9 +312,9 @@ void readCompressedBody(std::istream& in, const PcdHeader& h, const CoordinateLa
 
 }  // namespace
 
-PointCloud::Ptr readPcdFile(const std::string& path) {
+PointCloud::Ptr readPcdFile(const std::string& path, std::vector<std::string>& warnings) {
   LineReader reader(path);
-  PcdHeader h = readPcdHeader(reader);
+  PcdHeader h = readPcdHeader(reader, warnings);
   const CoordinateLayout layout = coordinateLayout(h);
   const std::uint64_t size = fileSize(path);
   const std::uint64_t available = size > h.body_offset ? size - h.body_offset : 0;

@@ -12,6 +12,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "mac_registration/features/cloud_filtering.hpp"
 #include "mac_registration/features/cloud_io.hpp"
@@ -416,6 +417,61 @@ TEST(LoadCloud, KeepsAnOrganisedPcdsGridAndItsNans) {
     EXPECT_EQ((*cloud)(0, 2).y, 2.0f);
     EXPECT_EQ((*cloud)(1, 2).x, 1.0f);
   }
+}
+
+// PCD v0.5 named only POINTS; older headers still (COLUMNS for FIELDS, no SIZE and TYPE: every field a
+// float32) are read as PCL reads them.
+TEST(LoadCloud, ReadsPcdVersion05WithoutAGrid) {
+  TempDir dir;
+  const std::string points = "POINTS 3\nDATA ascii\n1 2 3\n-4 5.5 6\n7 -8 9.25\n";
+  std::vector<std::string> warnings;
+  const PointCloud::Ptr cloud = loadCloud(
+      dir.write("v05.pcd",
+                "# .PCD v.5\nVERSION .5\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n" + points),
+      &warnings);
+  expectThreePoints(*cloud);
+  EXPECT_EQ(cloud->width, 3u);
+  EXPECT_EQ(cloud->height, 1u);
+  EXPECT_TRUE(warnings.empty());
+  expectThreePoints(*loadCloud(dir.write("columns.pcd", "VERSION .5\nCOLUMNS x y z\n" + points)));
+  expectLoadError(dir.write("height.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nHEIGHT 1\n" + points),
+                  "HEIGHT but no WIDTH line");
+  expectLoadError(dir.write("no_grid.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nDATA ascii\n1 2 3\n"),
+                  "no WIDTH or POINTS line");
+}
+
+// SLAM pipelines (the NCLT keyframes in ../shared) write WIDTH 0 HEIGHT 0 with POINTS N, binary_compressed
+// x y z intensity; PCL refuses them ("HEIGHT given (0) but no WIDTH"), Open3D reads N unorganised points.
+TEST(LoadCloud, ReadsAPcdWithAnEmptyGridAndWarnsOfIt) {
+  TempDir dir;
+  pcl::PointCloud<pcl::PointXYZI> scan;
+  for (const auto& p : threePoints()) {
+    pcl::PointXYZI point;
+    point.x = p.x;
+    point.y = p.y;
+    point.z = p.z;
+    point.intensity = 42.0f;
+    scan.push_back(point);
+  }
+  pcl::PCDWriter().writeBinaryCompressed(dir.file("z.pcd"), scan);
+  std::ifstream in(dir.file("z.pcd"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string path =
+      dir.write("keyframe.pcd", replaced(replaced(bytes, "WIDTH 3", "WIDTH 0"), "HEIGHT 1", "HEIGHT 0"));
+  std::vector<std::string> warnings;
+  const PointCloud::Ptr cloud = loadCloud(path, &warnings);
+  expectThreePoints(*cloud);
+  EXPECT_EQ(cloud->width, 3u);
+  EXPECT_EQ(cloud->height, 1u);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0],
+            "cloud '" + path +
+                "': its header says WIDTH 0 HEIGHT 0 but POINTS 3 (WIDTH x HEIGHT should be POINTS); "
+                "read as 3 unorganised points");
+  expectThreePoints(*loadCloud(path));  // without a place for warnings
+  // Other grids that disagree with POINTS stay refused: which of the two is right is unknown.
+  expectLoadError(dir.write("grid.pcd", replaced(bytes, "WIDTH 3", "WIDTH 2")),
+                  "WIDTH x HEIGHT = 2 x 1 is not POINTS 3");
 }
 
 // A finite double beyond float's range must not become an infinity, which the front end would drop.

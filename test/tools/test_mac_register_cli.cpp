@@ -1,6 +1,8 @@
 // mac_register as a user runs it: exit status 0 / 1 / 2 and the reason on stderr.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "cli_run.hpp"
@@ -81,6 +83,23 @@ TEST(MacRegisterCli, CloudsRegisterAndPrintTheFrontEnd) {
   EXPECT_LT(rotationErrorDeg(estimate, truth), 15.0);
   EXPECT_LT(translationError(estimate, truth), 0.30);
   EXPECT_GT(readCorrespondencesFile(dir.file("c.txt")).size(), 1000u);
+}
+
+// A SLAM pipeline's header, WIDTH 0 HEIGHT 0 with POINTS N: read and registered, the fault named on stderr.
+TEST(MacRegisterCli, APcdWithAnEmptyGridRegistersWithAWarning) {
+  TempDir dir;
+  std::ifstream in(demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd"), std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string grid = "WIDTH 13555\nHEIGHT 1\n";
+  ASSERT_NE(bytes.find(grid), std::string::npos);
+  const std::string target =
+      dir.write("slam.pcd", bytes.replace(bytes.find(grid), grid.size(), "WIDTH 0\nHEIGHT 0\n"));
+  const CliRun r = run(demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + " " + target + " --config " +
+                       MAC_CONFIG_DIR + "/indoor_rgbd.yaml");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "mac_register: warning: cloud '" + target +
+                                     "': its header says WIDTH 0 HEIGHT 0 but POINTS 13555"))
+      << r.output;
 }
 
 TEST(MacRegisterCli, CloudsThatDoNotOverlapExitOneAndSayWhy) {

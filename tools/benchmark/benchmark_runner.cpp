@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <exception>
+#include <iostream>
 #include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
 
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/pose_error.hpp"
@@ -25,6 +30,21 @@ double inlierRatio(const CorrespondenceSet& c, const Eigen::Isometry3d& T, doubl
     inliers += (T * c.source_points.col(k) - c.target_points.col(k)).norm() < threshold;
   return double(inliers) / double(c.size());
 }
+
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+// A cloud, with what it was read despite printed on stderr; once a file, since a scan may be in many pairs.
+PointCloud::Ptr loadCloudWarningOnce(const std::string& path) {
+  static std::mutex mutex;
+  static std::set<std::string> shown;
+  std::vector<std::string> warnings;
+  PointCloud::Ptr cloud = loadCloud(path, &warnings);
+  const std::lock_guard<std::mutex> lock(mutex);
+  for (const auto& warning : warnings) {
+    if (shown.insert(warning).second) std::cerr << "mac_benchmark: warning: " << warning << "\n";
+  }
+  return cloud;
+}
+#endif
 
 MethodOutcome outcomeOf(const std::string& method, const MacResult& result, const Eigen::Isometry3d& truth,
                         const SuccessCriterion& criterion) {
@@ -95,8 +115,8 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
     return prepared;
   }
 #ifdef MAC_REGISTRATION_WITH_FEATURES
-  const PointCloud::Ptr source = loadCloud(pair.source_path);
-  const PointCloud::Ptr target = loadCloud(pair.target_path);
+  const PointCloud::Ptr source = loadCloudWarningOnce(pair.source_path);
+  const PointCloud::Ptr target = loadCloudWarningOnce(pair.target_path);
   auto features =
       std::make_shared<FeatureCorrespondences>(computeCorrespondences(*source, *target, settings.features));
   const FrontEndStats& s = features->stats;
