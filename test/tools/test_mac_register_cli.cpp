@@ -102,6 +102,27 @@ TEST(MacRegisterCli, APcdWithAnEmptyGridRegistersWithAWarning) {
       << r.output;
 }
 
+// Object scale with one setting: the Stanford bunny scans (15 cm) with the object preset, whose voxel size
+// and distances are auto. The ground truth is Stanford's own alignment (0.33 mm median residual).
+TEST(MacRegisterCli, TheBunnyRegistersAndVerifiesWithTheObjectPreset) {
+  TempDir dir;
+  const CliRun r =
+      run(demoDataPath("bunny/stanford_bun045.ply") + " " + demoDataPath("bunny/stanford_bun000.ply") +
+          " --config " + MAC_CONFIG_DIR + "/object_scan.yaml --out " + dir.file("T.txt"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "status: success")) << r.output;
+  const Eigen::Isometry3d truth = readTransformFile(demoDataPath("bunny/T_target_source_gt.txt"));
+  const Eigen::Isometry3d estimate = readTransformFile(dir.file("T.txt"));
+  // A few keypoint spacings (2.6 mm) of the truth: the refinement's residual, not a coarse pose.
+  EXPECT_LT(rotationErrorDeg(estimate, truth), 2.0);
+  EXPECT_LT(translationError(estimate, truth), 0.005);
+  // The same pair with the indoor preset's 5 cm voxels is a handful of keypoints: scale is what decides.
+  const CliRun indoor =
+      run(demoDataPath("bunny/stanford_bun045.ply") + " " + demoDataPath("bunny/stanford_bun000.ply") +
+          " --config " + MAC_CONFIG_DIR + "/indoor_rgbd.yaml");
+  EXPECT_NE(indoor.status, 0) << indoor.output;
+}
+
 TEST(MacRegisterCli, CloudsThatDoNotOverlapExitOneAndSayWhy) {
   // redkitchen fragments 21 and 0: 1.4 % overlap. MAC finds a transform; the verification refuses it.
   TempDir dir;
