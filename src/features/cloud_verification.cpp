@@ -5,7 +5,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <iomanip>
 #include <limits>
+#include <sstream>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "mac_registration/core/verification.hpp"
@@ -78,6 +83,23 @@ constexpr std::size_t kFewestSeen = 10;
 // or a moved cloud's normals may face the other way).
 const float kAlongCosine = float(std::cos(30.0 * M_PI / 180.0));
 
+// A viewpoint whose nearest keypoint is more than this many cloud diagonals away is not where the cloud's
+// sensor was but a frame origin somewhere else (a world or map frame): real scans are seen from close by
+// (a lidar's nearest points are metres away in a scan 100 m across, an RGB-D camera's 0.5-1 m in a 3-5 m
+// room, an object scanner's 0.3-1 m from a 10-30 cm object). From that far, any cloud looks like a depth
+// map, so nothing else about it tells (doc/decisions/viewpoint-premise.md).
+constexpr double kFarthestViewpoint = 10.0;
+
+// The diagonal of the cloud's bounding box [m].
+double diagonalOf(const PointCloud& cloud) {
+  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max()), high = -low;
+  for (const auto& p : cloud) {
+    low = low.min(p.getArray3fMap());
+    high = high.max(p.getArray3fMap());
+  }
+  return double((high - low).matrix().norm());
+}
+
 }  // namespace
 
 // One cloud as its sensor saw it.
@@ -86,8 +108,12 @@ struct AlignmentJudge::View {
   pcl::PointCloud<pcl::Normal>::ConstPtr normals;  // per point, or null
   Eigen::Vector3f viewpoint;
   float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
+  float min_range = 0.0f;  // [m] of the nearest
   SurfaceGrid near_grid;   // the points within tau of a placed point
   std::unique_ptr<RangeImage> image;
+  // The free-space and seen-on-surface evidence may rest on the viewpoint: it is not more than
+  // kFarthestViewpoint diagonals away from the cloud.
+  bool viewpoint_used = true;
 
   View(const PointCloud::ConstPtr& cloud, const pcl::PointCloud<pcl::Normal>::ConstPtr& cloud_normals,
        const Eigen::Vector3f& from, double tau)
@@ -99,6 +125,7 @@ struct AlignmentJudge::View {
     ranges.reserve(cloud->size());
     for (const auto& p : *cloud) ranges.push_back((p.getVector3fMap() - viewpoint).norm());
     max_range = *std::max_element(ranges.begin(), ranges.end());
+    min_range = *std::min_element(ranges.begin(), ranges.end());
     std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
     // Cells about tau wide at the median range: a few keypoints each on a surface facing the sensor.
     const double median_range = std::max(1e-3f, ranges[ranges.size() / 2]);
@@ -158,9 +185,24 @@ AlignmentJudge::AlignmentJudge(const FeatureCorrespondences& f, double tau, int 
     return;
   source_ = std::make_unique<View>(f.source_keypoints, f.source_keypoint_normals, f.source_viewpoint, tau);
   target_ = std::make_unique<View>(f.target_keypoints, f.target_keypoint_normals, f.target_viewpoint, tau);
+  for (const auto& [view, role] : {std::pair<View*, const char*>{source_.get(), "source"},
+                                   std::pair<View*, const char*>{target_.get(), "target"}}) {
+    view->viewpoint_used = !(double(view->min_range) > kFarthestViewpoint * diagonalOf(*view->points));
+    if (!view->viewpoint_used) viewpoint_warnings_.push_back(viewpointNotUsed(role, *view));
+  }
 }
 
 AlignmentJudge::~AlignmentJudge() = default;
+
+std::string AlignmentJudge::viewpointNotUsed(const char* role, const View& view) {
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(1) << "the " << role << "'s viewpoint was not used: ("
+       << view.viewpoint.x() << ", " << view.viewpoint.y() << ", " << view.viewpoint.z()
+       << ") m in its frame, its nearest point is " << view.min_range << " m away, more than "
+       << kFarthestViewpoint << " times the cloud's own size (a world or map frame?); no free-space"
+       << (std::string(role) == "target" ? " or seen-on-surface" : "") << " evidence from its view";
+  return text.str();
+}
 
 VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
   VerificationSignals signals;
@@ -188,14 +230,18 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
       source_in_target, source_->normals ? &source_normals_in_target : nullptr, tau_, threads_);
   const View::Agreement seen_by_source = source_->compare(target_in_source, nullptr, tau_, threads_);
   signals.aligned_overlap = share(seen_by_target.on_surface, seen_by_target.points);
-  signals.seen_on_surface = seen_by_target.seen >= kFewestSeen
+  signals.seen_on_surface = target_->viewpoint_used && seen_by_target.seen >= kFewestSeen
                                 ? share(seen_by_target.seen_on_surface, seen_by_target.seen)
                                 : kNotMeasured;
   signals.surface_agreement = seen_by_target.with_normals >= kFewestSeen
                                   ? share(seen_by_target.along, seen_by_target.with_normals)
                                   : kNotMeasured;
-  signals.free_space_violation = std::max(share(seen_by_target.in_free_space, seen_by_target.points),
-                                          share(seen_by_source.in_free_space, seen_by_source.points));
+  // Each view's free space counts only where its viewpoint does; with neither, the signal is not measured.
+  if (target_->viewpoint_used || source_->viewpoint_used) {
+    signals.free_space_violation =
+        std::max(target_->viewpoint_used ? share(seen_by_target.in_free_space, seen_by_target.points) : 0.0,
+                 source_->viewpoint_used ? share(seen_by_source.in_free_space, seen_by_source.points) : 0.0);
+  }
   return signals;
 }
 
@@ -205,6 +251,7 @@ void verifyAlignment(const FeatureCorrespondences& features, const MacParams& pa
   const auto start = std::chrono::steady_clock::now();
   const AlignmentJudge judge(features, params.evaluation.inlier_threshold, params.num_threads);
   const VerificationSignals clouds = judge.judge(result.T_target_source);
+  for (const std::string& warning : judge.viewpointWarnings()) result.warnings.push_back(warning);
   result.verification.aligned_overlap = clouds.aligned_overlap;
   result.verification.seen_on_surface = clouds.seen_on_surface;
   result.verification.free_space_violation = clouds.free_space_violation;
