@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""Pair tables (mac_benchmark pairs / verify) and a first-pass map from the NCLT campus run in ../shared/data/nclt.
+
+  /usr/bin/python3 tools/make_nclt_tables.py [--nclt ../shared/data/nclt] [--out build/nclt] [--map-voxel 0.2]
+
+Writes into --out:
+  revisits.tsv   each revisit keyframe (source) against its nearest earlier keyframe (target), T from revisits.tsv
+  loops.tsv      the mapping run's loop closures: keyframe b (source) against keyframe a (target), T = T_ab
+  map.tsv        every sixth revisit keyframe against the map of the first pass (T = T_map_query)
+  map_first_pass.pcd   keyframes 0-489 under opti_pose_2, voxel-downsampled (what map.tsv's target is)
+The keyframe files are referenced where they are (their headers say WIDTH 0 HEIGHT 0; mac_registration reads
+them with a warning). Needs numpy and Open3D (python3-open3d) for the map.
+"""
+import argparse
+import os
+import sys
+
+import numpy as np
+
+FIRST_PASS_END = 490  # keyframes before the run comes back (MANIFEST.md)
+
+
+def matrix_of(x, y, z, qx, qy, qz, qw):
+    """4x4 of a pose given as translation and a Hamilton quaternion (scalar last)."""
+    t = np.eye(4)
+    t[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+                 [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+                 [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
+    t[:3, 3] = [x, y, z]
+    return t
+
+
+def row_major(t):
+    return " ".join("%.9f" % v for v in np.asarray(t).reshape(-1))
+
+
+def write_table(path, rows):
+    with open(path, "w") as out:
+        out.write("name\tsource_file\ttarget_file\tT\n")
+        for row in rows:
+            out.write("\t".join(row) + "\n")
+    print("wrote %s (%d pairs)" % (path, len(rows)))
+
+
+def keyframe(nclt, index):
+    return os.path.abspath(os.path.join(nclt, "keyframes", "%d.pcd" % index))
+
+
+def revisit_rows(nclt):
+    rows = []
+    with open(os.path.join(nclt, "revisits.tsv")) as f:
+        for line in f:
+            if line.startswith("#") or not line.strip():
+                continue
+            query, earlier, _, t_map_query, t_earlier_query = line.rstrip("\n").split("\t")
+            rows.append((int(query), int(earlier), t_map_query, t_earlier_query))
+    return rows
+
+
+def loop_rows(nclt):
+    rows = []
+    with open(os.path.join(nclt, "loops.txt")) as f:
+        for line in f:
+            v = line.split()
+            if len(v) < 10:
+                continue
+            a, b = int(v[0]), int(v[1])
+            t_ab = matrix_of(*map(float, v[3:10]))
+            rows.append(("loop %d<-%d" % (a, b), keyframe(nclt, b), keyframe(nclt, a), row_major(t_ab)))
+    return rows
+
+
+def build_map(nclt, path, voxel):
+    import open3d as o3d  # only the map needs it
+    points = []
+    with open(os.path.join(nclt, "keyframes.txt")) as f:
+        for line in f:
+            v = line.split()
+            index = int(v[0])
+            if index >= FIRST_PASS_END:
+                continue
+            t = matrix_of(*map(float, v[26:33]))  # opti_pose_2, the loop-closed poses the map is built with
+            p = np.asarray(o3d.io.read_point_cloud(keyframe(nclt, index)).points)
+            points.append(p @ t[:3, :3].T + t[:3, 3])
+    cloud = o3d.geometry.PointCloud()
+    cloud.points = o3d.utility.Vector3dVector(np.concatenate(points))
+    cloud = cloud.voxel_down_sample(voxel)
+    o3d.io.write_point_cloud(path, cloud)
+    print("wrote %s (%d points, voxel %g m)" % (path, len(cloud.points), voxel))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--nclt", default=os.path.join("..", "shared", "data", "nclt"))
+    parser.add_argument("--out", default=os.path.join("build", "nclt"))
+    parser.add_argument("--map-voxel", type=float, default=0.2, help="[m] leaf of the map's voxel grid")
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    revisits = revisit_rows(args.nclt)
+    write_table(os.path.join(args.out, "revisits.tsv"),
+                [("rev %d->%d" % (q, e), keyframe(args.nclt, q), keyframe(args.nclt, e), t)
+                 for q, e, _, t in revisits])
+    write_table(os.path.join(args.out, "loops.tsv"), loop_rows(args.nclt))
+    map_path = os.path.abspath(os.path.join(args.out, "map_first_pass.pcd"))
+    write_table(os.path.join(args.out, "map.tsv"),
+                [("map %d" % q, keyframe(args.nclt, q), map_path, t) for q, _, t, _ in revisits[::6]])
+    build_map(args.nclt, map_path, args.map_voxel)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
