@@ -40,7 +40,12 @@ TEST(ReconfigureMapping, EveryFieldIsATableKeyWithTheTablesDefaultAndRoomyBounds
         << key;
     // At or outside the table's bounds: dynamic_reconfigure's clamping never turns a refused value into an
     // accepted one, and never refuses one the table accepts.
-    EXPECT_LE(fieldValue(MacRegistrationConfig::__getMin__(), description->name), p.min) << key;
+    const double min = fieldValue(MacRegistrationConfig::__getMin__(), description->name);
+    EXPECT_LE(min, p.min) << key;
+    // Where 0 means auto, a negative request clamped to 0 would be accepted as auto instead of refused.
+    if (p.zero_means_auto) {
+      EXPECT_LT(min, 0.0) << key;
+    }
     const double max = fieldValue(MacRegistrationConfig::__getMax__(), description->name);
     const bool unbounded_int = description->type == "int" && max == std::numeric_limits<int>::max();
     EXPECT_TRUE(max >= p.max || unbounded_int) << key << ": .cfg max " << max << ", table max " << p.max;
