@@ -608,7 +608,7 @@ std::vector<FeatureMatch> matchFeatures(const DescriptorIndex& source, const Des
   const bool ratio_test = params.ratio_test > 0.0;
   std::vector<NearestDescriptors> forward, backward;
   // Exact: the brute force, faster than the exact kd-tree on every size measured (1 000 to 19 500
-  // descriptors, BENCHMARKS.md "Exact search by brute force").
+  // descriptors, doc/decisions/exact-descriptor-search.md).
   if (params.match_epsilon == 0.0) {
     forward = nearestDescriptorsBruteForce(source_descriptors, target, threads,
                                            params.mutual_filter ? &backward : nullptr);

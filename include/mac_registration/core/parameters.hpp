@@ -45,7 +45,7 @@ struct GraphParams {
   // first-order graph above it gets them estimated from common-neighbour counts, within a factor t_cmp^2
   // of Eq. 4's sums (buildCountedSecondOrderGraph), a sparser one the exact sums. 20 keeps every result of
   // the benchmark sets that 50 gave and cuts the chance cliques of real FPFH matches (whose second-order
-  // graphs have mean degrees of 20-50); see BENCHMARKS.md, "dense_mean_degree 20".
+  // graphs have mean degrees of 20-50); see doc/decisions/dense-mean-degree.md.
   double dense_mean_degree = 20.0;
 };
 

@@ -93,7 +93,7 @@ struct NearestDescriptors {
 // rounding error; only the direct sum decides.) Without `reverse`, each group of queries of similar norm
 // scans the tiles outward from its norm and stops where | |q| - |t| |, a lower bound on |q - t|, exceeds
 // every query's second nearest distance with a margin above the rounding: the same two nearest as the
-// scan of every pair, for a fraction of its pairs (BENCHMARKS.md, "Matching: only the tiles ...").
+// scan of every pair, for a fraction of its pairs (doc/decisions/exact-descriptor-search.md).
 // Ties go to the lowest reference index (the second distance then equals the nearest). With `reverse`,
 // the same scan also gives each reference descriptor's nearest query (ties: the lowest query index;
 // second_distance left infinite) into *reverse, reference.size() entries. The results do not depend on
