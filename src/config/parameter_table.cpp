@@ -198,7 +198,7 @@ std::vector<Parameter> makeTable() {
       integer("cliques.max_degeneracy", MAC_FIELD(mac.cliques.max_degeneracy), "core number", 2, kInf,
               "dense cores are thinned to this many strongest nodes before the search, 0 = no bound", true),
       real("cliques.time_limit", MAC_FIELD(mac.cliques.time_limit), "s", 0.0, kInf,
-           "budget of the whole clique search (> 0)"),
+           "budget of the whole clique search (> 0), CPU time of its thread"),
       integer("cliques.max_pruning_rounds", MAC_FIELD(mac.cliques.max_pruning_rounds), "rounds", 0, 10,
               "pruned re-searches after a bounded search"),
       real("cliques.pruning_keep_fraction", MAC_FIELD(mac.cliques.pruning_keep_fraction), "", 0.0, 1.0,

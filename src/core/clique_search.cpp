@@ -5,22 +5,25 @@
 #include <algorithm>
 #include <chrono>
 #include <exception>
+#include <utility>
 #include <vector>
 
 #include "igraph_session.hpp"
 #include "mac_registration/core/graph_bounds.hpp"
 #include "search_graph.hpp"
+#include "thread_cpu_clock.hpp"
 
 namespace mac_registration {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+// The budget is counted in the searching thread's CPU time: see CliqueSearchParams::time_limit.
+using BudgetClock = ThreadCpuClock;
 
 struct SearchState {
   const CliqueVisitor* visit = nullptr;
   const StopFlag* stop = nullptr;
   std::size_t limit = 0;
-  Clock::time_point deadline;
+  BudgetClock::time_point deadline;
   std::size_t count = 0;
   bool hit_count = false;
   bool hit_time = false;
@@ -60,8 +63,8 @@ igraph_error_t onClique(const igraph_vector_int_t* clique, void* arg) {
     state.hit_count = true;
     return IGRAPH_STOP;
   }
-  // A clock read costs tens of nanoseconds; every 64th clique keeps the overshoot small and the cost nil.
-  if ((state.count & 63u) == 0 && Clock::now() > state.deadline) {
+  // A clock read costs up to a microsecond; every 64th clique keeps the overshoot small and the cost nil.
+  if ((state.count & 63u) == 0 && BudgetClock::now() > state.deadline) {
     state.hit_time = true;
     return IGRAPH_STOP;
   }
@@ -74,13 +77,12 @@ struct SearchOutcome {
   bool hit_time = false;
   bool cancelled = false;
   int stale_cleanups = 0;
+  std::chrono::steady_clock::duration waited{};  // for igraph's lock
   std::string error;
 };
 
 // Copies the search graph into igraph and streams its maximal cliques to `state`; returns igraph's code.
-igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
-                                SearchState& state) {
-  SearchGraph search = searchGraph(graph, params);
+igraph_error_t enumerateCliques(SearchGraph search, const CliqueSearchParams& params, SearchState& state) {
   state.member_begin = std::move(search.member_begin);
   state.members = std::move(search.members);
   state.min_size = static_cast<std::size_t>(params.min_clique_size);
@@ -100,16 +102,30 @@ igraph_error_t enumerateCliques(const CompatibilityGraph& graph, const CliqueSea
   return code;
 }
 
+// One search of `graph`, until `budget_end` or, with retries left, until half of what is left of the budget
+// when the search starts: a search stopped by time still leaves room to search a pruned graph. The budget
+// starts when igraph's lock is held, whatever the wait for it (and being counted in this thread's CPU time,
+// the wait spends none of it either way).
 SearchOutcome searchOnce(const CompatibilityGraph& graph, const CliqueSearchParams& params,
-                         Clock::time_point deadline, const CliqueVisitor& visit, const StopFlag* stop) {
+                         BudgetClock::time_point budget_end, bool retries_left, const CliqueVisitor& visit,
+                         const StopFlag* stop) {
   SearchOutcome outcome;
+  // The search graph needs no igraph: built before the lock, so that others wait for igraph alone.
+  SearchGraph search = searchGraph(graph, params);
+  IgraphSession session(stop);
+  outcome.waited = session.waited();
+  if (!session.held()) {
+    outcome.cancelled = true;  // stopped while waiting for the lock
+    return outcome;
+  }
+  const auto now = BudgetClock::now();
   SearchState state;
   state.visit = &visit;
   state.stop = stop;
   state.limit = params.max_cliques;
-  state.deadline = deadline;
-  IgraphSession session(deadline, stop);
-  const igraph_error_t code = enumerateCliques(graph, params, state);
+  state.deadline = retries_left && budget_end > now ? now + (budget_end - now) / 2 : budget_end;
+  session.interruptAt(state.deadline);
+  const igraph_error_t code = enumerateCliques(std::move(search), params, state);
   outcome.stale_cleanups = session.dropStaleCleanups();
   if (state.visitor_error) std::rethrow_exception(state.visitor_error);
 
@@ -133,10 +149,10 @@ std::size_t nonIsolatedNodes(const CompatibilityGraph& graph) {
 CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const CliqueSearchParams& params,
                                        const CliqueVisitor& visit, const StopFlag* stop) {
   CliqueSearchStats stats;
-  const auto start = Clock::now();
-  const auto budget =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params.time_limit));
-  const auto final_deadline = start + budget;
+  // Capped at 30 years, so that no finite limit overflows the clock's nanoseconds.
+  const auto budget = std::chrono::duration_cast<BudgetClock::duration>(
+      std::chrono::duration<double>(std::min(params.time_limit, 1e9)));
+  const auto budget_end = BudgetClock::now() + budget;
 
   const std::vector<int> core = coreNumbers(graph);
   stats.degeneracy = core.empty() ? 0 : *std::max_element(core.begin(), core.end());
@@ -153,12 +169,9 @@ CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const Cl
       break;
     }
     stats.nodes_searched = nonIsolatedNodes(*current);
-    // Keep half of what is left for the retries, so that a search stopped by time still leaves room to
-    // search a pruned graph.
     const bool retries_left = round < params.max_pruning_rounds;
-    const auto now = Clock::now();
-    const auto deadline = retries_left ? now + (final_deadline - now) / 2 : final_deadline;
-    const SearchOutcome outcome = searchOnce(*current, params, deadline, visit, stop);
+    const SearchOutcome outcome = searchOnce(*current, params, budget_end, retries_left, visit, stop);
+    stats.igraph_wait_ms += std::chrono::duration<double, std::milli>(outcome.waited).count();
     stats.cliques += outcome.cliques;
     stats.stale_igraph_cleanups += outcome.stale_cleanups;
     stats.cancelled = outcome.cancelled;
@@ -170,7 +183,7 @@ CliqueSearchStats searchMaximalCliques(const CompatibilityGraph& graph, const Cl
       break;
     }
     stats.complete = !outcome.hit_count && !outcome.hit_time && !outcome.cancelled;
-    if (stats.complete || outcome.cancelled || !retries_left || Clock::now() >= final_deadline) break;
+    if (stats.complete || outcome.cancelled || !retries_left || BudgetClock::now() >= budget_end) break;
 
     const auto keep_count = static_cast<std::size_t>(params.pruning_keep_fraction * stats.nodes_searched);
     pruned = keepNodes(*current, strongestNodes(nodeStrength(*current), keep_count));

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "mac_registration/core/stop_flag.hpp"
+#include "thread_cpu_clock.hpp"
 
 namespace mac_registration {
 
@@ -18,10 +19,19 @@ namespace mac_registration {
 // those frames are still alive; and a session never ends with entries left for the next caller to free.
 class IgraphSession {
  public:
-  IgraphSession(std::chrono::steady_clock::time_point deadline, const StopFlag* stop);
+  // Waits for the lock while another thread's session holds it, reading `stop` as it waits: a registration
+  // queued behind another's search must not hold up a shutdown. When `stop` is raised first the session
+  // is not held (held() is false) and igraph must not be called.
+  explicit IgraphSession(const StopFlag* stop);
   ~IgraphSession();
   IgraphSession(const IgraphSession&) = delete;
   IgraphSession& operator=(const IgraphSession&) = delete;
+
+  bool held() const { return lock_.owns_lock(); }
+  // How long the constructor waited for another session to end.
+  std::chrono::steady_clock::duration waited() const { return waited_; }
+  // igraph is interrupted once this thread's CPU time passes `deadline` (none until this is called).
+  void interruptAt(ThreadCpuClock::time_point deadline);
 
   // The message of the last igraph error in this session, empty if none.
   std::string lastError() const;
@@ -31,7 +41,8 @@ class IgraphSession {
   int dropStaleCleanups();
 
  private:
-  std::unique_lock<std::mutex> lock_;
+  std::unique_lock<std::timed_mutex> lock_;
+  std::chrono::steady_clock::duration waited_{};
 };
 
 }  // namespace mac_registration

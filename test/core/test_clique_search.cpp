@@ -9,6 +9,7 @@
 #include <future>
 #include <iterator>
 #include <memory>
+#include <mutex>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -347,6 +348,98 @@ TEST(CliqueSearch, ThrowingVisitorPropagatesAndReleasesLock) {
   std::thread([task] { (*task)(); }).detach();
   ASSERT_EQ(done.wait_for(std::chrono::seconds(20)), std::future_status::ready) << "igraph lock not released";
   EXPECT_EQ(done.get().cliques, (std::vector<Clique>{{0, 1, 2, 3}, {3, 4, 5}}));
+}
+
+// Another thread's search that holds igraph's lock from its first clique until released (or 30 s):
+// what a concurrent registration's long search is to this one.
+class LockHolder {
+ public:
+  LockHolder() {
+    const std::shared_future<void> released = release_.get_future().share();
+    holding_ = std::async(std::launch::async, [this, released] {
+      CliqueSearchParams params;
+      params.time_limit = 60.0;
+      return searchMaximalCliques(disjointTriangles(2), params, [this, released](const int*, std::size_t) {
+        std::call_once(entered_once_, [this] { entered_.set_value(); });
+        released.wait_for(std::chrono::seconds(30));
+      });
+    });
+    entered_.get_future().wait();
+  }
+  ~LockHolder() { release(); }
+  void release() {
+    std::call_once(released_once_, [this] { release_.set_value(); });
+    holding_.wait();
+  }
+
+ private:
+  std::promise<void> entered_, release_;
+  std::once_flag entered_once_, released_once_;
+  std::future<CliqueSearchStats> holding_;
+};
+
+// A registration queued behind another's search gets its whole budget once igraph is its own: the wait
+// for the lock is not search time, so the result is the one it gets alone.
+TEST(CliqueSearch, TheWaitForIgraphSpendsNoBudget) {
+  const CompatibilityGraph graph = disjointTriangles(3000);
+  CliqueSearchParams params;
+  params.time_limit = 0.3;
+  const Collected alone = search(graph, params);
+  ASSERT_TRUE(alone.stats.complete);
+  ASSERT_EQ(alone.cliques.size(), 3000u);
+  EXPECT_LT(alone.stats.igraph_wait_ms, 100.0);
+
+  LockHolder holder;
+  auto queued = std::async(std::launch::async, [&] { return search(graph, params); });
+  // Queued for three times its budget, then igraph is free.
+  ASSERT_EQ(queued.wait_for(std::chrono::milliseconds(900)), std::future_status::timeout)
+      << "searched while another search held igraph";
+  holder.release();
+  ASSERT_EQ(queued.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  const Collected after_waiting = queued.get();
+  EXPECT_GE(after_waiting.stats.igraph_wait_ms, 850.0);
+  EXPECT_TRUE(after_waiting.stats.complete);
+  EXPECT_FALSE(after_waiting.stats.hit_time_limit);
+  EXPECT_EQ(after_waiting.stats.pruning_rounds, 0);
+  EXPECT_EQ(after_waiting.cliques, alone.cliques);
+}
+
+// The budget is the search's CPU time: time the searching thread spends off the core (here asleep in the
+// visitor, as it is when the machine is busy with other work) does not run it out.
+TEST(CliqueSearch, TimeOffTheCoreSpendsNoBudget) {
+  CliqueSearchParams params;
+  params.time_limit = 0.1;
+  std::size_t streamed = 0;
+  const CliqueSearchStats stats =
+      searchMaximalCliques(disjointTriangles(20), params, [&](const int*, std::size_t) {
+        ++streamed;
+        std::this_thread::sleep_for(std::chrono::milliseconds(15));  // 0.3 s off the core in all
+      });
+  EXPECT_TRUE(stats.complete);
+  EXPECT_FALSE(stats.hit_time_limit);
+  EXPECT_EQ(streamed, 20u);
+}
+
+// A shutdown must not wait for another registration's search: a raised flag ends the wait for igraph.
+TEST(CliqueSearch, AStopEndsTheWaitForIgraph) {
+  LockHolder holder;
+  StopFlag stop{false};
+  std::size_t streamed = 0;
+  auto queued = std::async(std::launch::async, [&] {
+    return searchMaximalCliques(
+        disjointTriangles(8), {}, [&](const int*, std::size_t) { ++streamed; }, &stop);
+  });
+  ASSERT_EQ(queued.wait_for(std::chrono::milliseconds(200)), std::future_status::timeout);
+  const auto raised = std::chrono::steady_clock::now();
+  stop = true;
+  ASSERT_EQ(queued.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+  const double stop_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - raised).count();
+  EXPECT_LT(stop_ms, 200.0) << "the stop waited for the other search";
+  const CliqueSearchStats stats = queued.get();
+  EXPECT_TRUE(stats.cancelled);
+  EXPECT_FALSE(stats.complete);
+  EXPECT_EQ(streamed, 0u);
 }
 
 }  // namespace

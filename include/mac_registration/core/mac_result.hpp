@@ -29,7 +29,10 @@ const char* toString(RegistrationStatus status);
 struct StageTimes {               // wall-clock milliseconds
   double graph_ms = 0.0;          // first-order graph
   double second_order_ms = 0.0;   // SOG weights
-  double clique_search_ms = 0.0;  // igraph enumeration, excluding the selection it streams into
+  double clique_search_ms = 0.0;  // igraph enumeration, excluding the selection it streams into and the wait
+  // For igraph's process-wide lock while other registrations in the process searched (igraph is not
+  // thread-safe): not counted in cliques.time_limit, and 0 for a registration that runs alone.
+  double clique_wait_ms = 0.0;
   // Node-guided selection, filters, top-K: the time they added to the search's (on two or more threads
   // the selection runs beside the search, and only what it does not overlap counts here).
   double selection_ms = 0.0;

@@ -64,7 +64,10 @@ struct CliqueSearchParams {
   // max_degeneracy strongest before the search: any clique of them is an equally good hypothesis, and
   // evaluation and refinement still use every correspondence.
   int max_degeneracy = 64;
-  // Wall-clock budget for all searches together [s], > 0.
+  // Budget for all searches together [s], > 0, in CPU time of the thread that searches: the wait for
+  // igraph's process-wide lock (another registration's search) and the time other work on the machine
+  // takes the core from it do not count, so that a registration gives the same result under load as alone.
+  // On an idle machine it is wall-clock time; under load the search may take longer by the wall clock.
   double time_limit = 2.0;
   // How often a bounded search may prune and retry, in [0, 10].
   int max_pruning_rounds = 3;
