@@ -42,11 +42,43 @@ bool stopped(const StopFlag* stop, MacResult& result, const char* stage) {
   return true;
 }
 
+// The bounds that cut a clique search off, with their values: "cliques.time_limit = 2 s (of its own CPU
+// time)" and / or "cliques.max_cliques = 200000".
+std::string boundsHit(const CliqueSearchStats& stats, const CliqueSearchParams& params) {
+  std::ostringstream text;
+  if (stats.hit_time_limit)
+    text << "cliques.time_limit = " << params.time_limit << " s (of its own CPU time)";
+  if (stats.hit_time_limit && stats.hit_count_limit) text << " and ";
+  if (stats.hit_count_limit) text << "cliques.max_cliques = " << params.max_cliques;
+  return text.str();
+}
+
+// Why no clique came out of the search and selection: the data (no compatible triple, or none passed the
+// normal-consistency filter) or a bound that cut the search off before it found one, which a larger
+// budget may fix and which says nothing about the data.
+std::string noCliqueMessage(const MacResult& result, const CliqueSearchStats& stats,
+                            const MacParams& params) {
+  const std::string size = std::to_string(params.cliques.min_clique_size);
+  if (result.counters.cliques > 0) {
+    return std::to_string(result.counters.cliques) + " cliques of " + size +
+           " or more compatible correspondences found, none passed the normal-consistency filter "
+           "(selection.normal_consistency_threshold)";
+  }
+  if (stats.hit_time_limit || stats.hit_count_limit) {
+    return "the clique search hit " + boundsHit(stats, params.cliques) + " before finding a clique of " +
+           size + " or more compatible correspondences (after " + std::to_string(stats.pruning_rounds) +
+           " pruning rounds); raise cliques.time_limit, or bound the graph (graph.max_correspondences, "
+           "graph.max_edges, cliques.max_degeneracy)";
+  }
+  return "no clique of " + size + " or more compatible correspondences";
+}
+
 // With a second thread the selection runs beside the search (igraph's enumeration is serial): the same
-// selection, and the search's time is no longer the sum of both.
+// selection, and the search's time is no longer the sum of both. When it selects nothing, `why_none` says
+// why.
 std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const CorrespondenceSet& c,
                                           const MacParams& params, int threads, const StopFlag* stop,
-                                          MacResult& result) {
+                                          MacResult& result, std::string& why_none) {
   StreamedSelection selection(graph, threads > 1);
   const auto search_start = Clock::now();
   const CliqueSearchStats stats = searchMaximalCliques(
@@ -67,7 +99,9 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
         " correspondences of its densest cores were left out of the clique search (they are "
         "still scored)");
   }
-  result.clique_search_complete = stats.complete;
+  // A pruned search that completed enumerated the cliques of part of the graph only.
+  const bool bounded = stats.hit_time_limit || stats.hit_count_limit;
+  result.clique_search_complete = stats.complete && !bounded;
   if (stats.stale_igraph_cleanups > 0) {
     result.warnings.push_back("igraph left " + std::to_string(stats.stale_igraph_cleanups) +
                               " temporaries on its cleanup stack after the clique search; dropped them "
@@ -75,14 +109,13 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
   }
   if (!stats.error.empty()) throw std::runtime_error("maximal clique search failed: " + stats.error);
   if (stats.cancelled) return {};
-  if (!stats.complete) {
-    std::ostringstream text;
-    text << "clique search stopped by its " << (stats.hit_time_limit ? "time limit (cliques.time_limit)" : "")
-         << (stats.hit_time_limit && stats.hit_count_limit ? " and " : "")
-         << (stats.hit_count_limit ? "count limit (cliques.max_cliques)" : "") << " after " << stats.cliques
-         << " cliques and " << stats.pruning_rounds
-         << " pruning rounds; hypotheses come from the cliques found";
-    result.warnings.push_back(text.str());
+  if (bounded && stats.cliques > 0) {  // with none, the failure's message says it
+    // Said whether or not a pruned search completed after it: the result is not that of the whole search.
+    result.warnings.push_back("clique search stopped by " + boundsHit(stats, params.cliques) + " after " +
+                              std::to_string(stats.cliques) + " cliques and " +
+                              std::to_string(stats.pruning_rounds) + " pruning rounds" +
+                              (stats.complete ? " (the last, on the strongest nodes, complete)" : "") +
+                              "; hypotheses come from the cliques found");
   }
   std::vector<SelectedClique> cliques = selection.selector().selected();
   if (params.selection.normal_consistency) {
@@ -95,6 +128,7 @@ std::vector<SelectedClique> selectCliques(const CompatibilityGraph& graph, const
   }
   cliques = heaviestCliques(std::move(cliques), params.selection.top_k);
   result.counters.selected_cliques = cliques.size();
+  if (cliques.empty()) why_none = noCliqueMessage(result, stats, params);
   result.times.selection_ms = selecting_ms + millisecondsSince(filter_start);
   return cliques;
 }
@@ -282,12 +316,12 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
 
-  const std::vector<SelectedClique> cliques = selectCliques(graph, c, params, threads, stop, result);
+  std::string why_no_clique;
+  const std::vector<SelectedClique> cliques =
+      selectCliques(graph, c, params, threads, stop, result, why_no_clique);
   if (stopped(stop, result, "the clique search and selection")) return;
   if (cliques.empty()) {
-    fail(result, RegistrationStatus::kNoClique,
-         "no clique of " + std::to_string(params.cliques.min_clique_size) +
-             " or more compatible correspondences");
+    fail(result, RegistrationStatus::kNoClique, why_no_clique);
     return;
   }
 

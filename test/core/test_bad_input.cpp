@@ -226,6 +226,37 @@ TEST(BadInput, CountBoundIsReportedAsIncompleteSearch) {
   EXPECT_EQ(result.counters.cliques, 10u);
   ASSERT_FALSE(result.warnings.empty());
   EXPECT_NE(result.warnings.back().find("cliques.max_cliques"), std::string::npos);
+
+  // Pruned until a search completes: still not the whole graph's cliques, and said so.
+  params.cliques.max_cliques = 2000;
+  params.cliques.max_pruning_rounds = 10;
+  params.cliques.pruning_keep_fraction = 0.1;
+  const MacResult pruned = registerCorrespondences(problem.correspondences, params);
+  EXPECT_GT(pruned.counters.pruning_rounds, 0);
+  EXPECT_FALSE(pruned.clique_search_complete);
+  ASSERT_FALSE(pruned.warnings.empty());
+  EXPECT_NE(pruned.warnings.back().find("cliques.max_cliques = 2000"), std::string::npos)
+      << pruned.warnings.back();
+  EXPECT_NE(pruned.warnings.back().find("complete"), std::string::npos) << pruned.warnings.back();
+}
+
+// A clique search that its time limit cuts off before it finds a clique fails as "no clique", but says the
+// bound did it, not the data: the same set has cliques given the time.
+TEST(BadInput, ATimeLimitThatFindsNoCliqueSaysSo) {
+  const SyntheticProblem problem =
+      makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.1, 17));
+  MacParams params = test::roomScaleParams();
+  params.cliques.time_limit = 1e-9;  // spent before igraph starts
+  const MacResult cut = registerCorrespondences(problem.correspondences, params);
+  expectFailure(cut, RegistrationStatus::kNoClique);
+  EXPECT_FALSE(cut.clique_search_complete);
+  EXPECT_EQ(cut.counters.cliques, 0u);
+  EXPECT_NE(cut.message.find("hit cliques.time_limit = 1e-09 s"), std::string::npos) << cut.message;
+  EXPECT_NE(cut.message.find("raise cliques.time_limit"), std::string::npos) << cut.message;
+
+  const MacResult given_time = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  EXPECT_TRUE(given_time.success) << given_time.message;
+  EXPECT_TRUE(given_time.clique_search_complete);
 }
 
 // A graph over the second-order budget is cut to its highest-degree nodes while the first-order graph is

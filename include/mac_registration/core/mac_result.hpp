@@ -16,7 +16,8 @@ enum class RegistrationStatus : std::uint8_t {
   kInvalidInput,           // e.g. source and target counts differ
   kTooFewCorrespondences,  // fewer than 3 usable (finite) correspondences
   kEmptyGraph,             // no compatible pair (or, for SOG, no compatible triangle)
-  kNoClique,               // no clique of min_clique_size
+  kNoClique,               // no clique of min_clique_size found; clique_search_complete false when a
+                           // bound (cliques.time_limit, max_cliques) cut the search off first (message says)
   kNoValidHypothesis,      // every clique was degenerate or no hypothesis scored above 0
   kTooFewInliers,          // the best transform has fewer than min_inliers inliers
   kInternalError,          // igraph failed; message carries its error
@@ -113,10 +114,12 @@ struct MacResult {
   // not to be used, unless success, or status kTooFewInliers or kUnverified (then the best transform found,
   // unverified).
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
-  std::vector<int> inlier_indices;     // indices into the caller's correspondences
-  double score = 0.0;                  // evaluation metric of T_target_source
-  bool clique_search_complete = true;  // false when a bound stopped the enumeration
-  bool graph_reduced = false;          // a size or density bound left correspondences out of the graph
+  std::vector<int> inlier_indices;  // indices into the caller's correspondences
+  double score = 0.0;               // evaluation metric of T_target_source
+  // False when a bound (cliques.time_limit, cliques.max_cliques) stopped the enumeration, also when a
+  // search of the graph pruned to its strongest nodes completed after it (a warning says which).
+  bool clique_search_complete = true;
+  bool graph_reduced = false;  // a size or density bound left correspondences out of the graph
   RegistrationCounters counters;
   StageTimes times;
   // How sure the verification is that T_target_source is right, in [0, 1]: success requires at least
