@@ -102,7 +102,7 @@ FeatureParams withVoxel(FeatureParams params, double voxel) {
 
 }  // namespace
 
-double autoVoxelSize(const PointCloud& cloud) {
+double autoVoxelSize(const PointCloud& cloud, const StopFlag* stop) {
   std::size_t dropped = 0;
   const PointCloud::Ptr finite = finitePoints(cloud, dropped);
   if (finite->size() < 3) return 0.0;
@@ -119,6 +119,7 @@ double autoVoxelSize(const PointCloud& cloud) {
   // and rooms alike. The leaf never goes below a millionth of the diagonal (the 21-bit keys above).
   double voxel = diagonal / 100.0;
   for (int step = 0; step < 3; ++step) {
+    throwIfStopped(stop, "choosing the voxel size");  // each count sorts a key per point
     const double occupied = double(occupiedVoxels(*finite, voxel));
     voxel = std::max(diagonal * 1e-6, voxel * std::sqrt(occupied / wanted));
   }
@@ -134,12 +135,17 @@ bool describedWith(const DescribedCloud& cloud, const FeatureParams& params) {
          cloud.params.support_voxel_factor == params.support_voxel_factor;
 }
 
-DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& given, const std::string& role) {
+namespace {
+
+// describeCloud's stages, which throw Cancelled when `stop` ends them.
+DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& given, const std::string& role,
+                              const StopFlag* stop) {
   throwIfInvalid(given);
-  const FeatureParams params = withVoxel(given, given.voxel_size == 0.0 ? autoVoxelSize(cloud) : 0.0);
+  const FeatureParams params = withVoxel(given, given.voxel_size == 0.0 ? autoVoxelSize(cloud, stop) : 0.0);
   DescribedCloud out;
   out.params = params;
   out.points = cloud.size();
+  throwIfStopped(stop, "before the front end");
   const PointCloud::Ptr finite = finitePoints(cloud, out.dropped);
   if (finite->size() < 3) {
     throw std::invalid_argument(role + " cloud has " + std::to_string(finite->size()) +
@@ -147,22 +153,23 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& given
                                 "); at least 3 are needed");
   }
   throwIfOutOfRange(*finite, params.voxel_size, role);
+  throwIfStopped(stop, "checking the points");
   out.viewpoint = finite->sensor_origin_.head<3>();
   auto start = Clock::now();
   // The kd-tree over every raw point costs more than its queries (a quarter of the front end on a
   // 3DMatch fragment), and only the resolution-unit d_cmp needs the result.
   if (resolutionNeeded(params))
-    out.resolution = meanNearestNeighbourDistance(finite, params.resolution_samples);
+    out.resolution = meanNearestNeighbourDistance(finite, params.resolution_samples, stop);
   out.resolution_ms = millisecondsSince(start);
 
   start = Clock::now();
-  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size, params.num_threads);
+  PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size, params.num_threads, stop);
   out.voxels = voxels->size();
   out.downsample_ms = millisecondsSince(start);
 
   start = Clock::now();
   const double normal_radius = params.normal_radius_factor * params.voxel_size;
-  const NormalCloud::Ptr normals = estimateNormals(voxels, normal_radius, params.num_threads);
+  const NormalCloud::Ptr normals = estimateNormals(voxels, normal_radius, params.num_threads, stop);
   // Points without a normal are left out of the FPFH neighbourhoods too: their pair features are undefined.
   const std::vector<int> with_normal = finiteNormals(*normals);
   voxels = subset(*voxels, with_normal);
@@ -173,11 +180,12 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& given
   NormalCloud::Ptr surface_normals = kept_normals;
   if (params.support_voxel_factor > 1.0) {
     start = Clock::now();
-    surface = voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size, params.num_threads);
+    surface =
+        voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size, params.num_threads, stop);
     out.downsample_ms += millisecondsSince(start);
     start = Clock::now();
     // Fitted to the keypoints around each surface point, not to the few surface points themselves.
-    const NormalCloud::Ptr fitted = estimateNormals(surface, voxels, normal_radius, params.num_threads);
+    const NormalCloud::Ptr fitted = estimateNormals(surface, voxels, normal_radius, params.num_threads, stop);
     const std::vector<int> fitted_finite = finiteNormals(*fitted);
     surface = subset(*surface, fitted_finite);
     surface_normals = subset(*fitted, fitted_finite);
@@ -186,8 +194,9 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& given
   out.support_points = surface->size();
 
   start = Clock::now();
-  const FpfhCloud::Ptr descriptors = computeFpfh(
-      voxels, surface, surface_normals, params.feature_radius_factor * params.voxel_size, params.num_threads);
+  const FpfhCloud::Ptr descriptors =
+      computeFpfh(voxels, surface, surface_normals, params.feature_radius_factor * params.voxel_size,
+                  params.num_threads, stop);
   std::vector<int> usable;
   for (int i = 0; i < static_cast<int>(descriptors->size()); ++i) {
     if (isUsableDescriptor((*descriptors)[i])) usable.push_back(i);
@@ -201,8 +210,19 @@ DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& given
   return out;
 }
 
+}  // namespace
+
+DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role,
+                             const StopFlag* stop) {
+  try {
+    return describeStages(cloud, params, role, stop);
+  } catch (const Cancelled& e) {
+    throw Cancelled(std::string(e.what()) + " (describing the " + role + " cloud)");
+  }
+}
+
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const DescribedCloud& t,
-                                            const FeatureParams& params) {
+                                            const FeatureParams& params, const StopFlag* stop) {
   throwIfInvalid(params);
   if (!describedWith(s, params) || !describedWith(t, params) || s.params.voxel_size != t.params.voxel_size) {
     throw std::invalid_argument(
@@ -227,7 +247,8 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
 
   const auto start = Clock::now();
   MatchingStats matching;
-  const std::vector<FeatureMatch> matches = matchFeatures(*indexOf(s), *indexOf(t), params, matching);
+  throwIfStopped(stop, "before matching descriptors");
+  const std::vector<FeatureMatch> matches = matchFeatures(*indexOf(s), *indexOf(t), params, matching, stop);
   stats.rejected_mutual = matching.rejected_mutual;
   stats.rejected_ratio = matching.rejected_ratio;
   stats.truncated = matching.truncated;
@@ -260,14 +281,15 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
 }
 
 FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
-                                              const FeatureParams& given) {
+                                              const FeatureParams& given, const StopFlag* stop) {
   // One leaf for both clouds (their descriptors must be comparable): the coarser, so that neither holds
   // more keypoints than the budget.
-  const FeatureParams params = given.voxel_size == 0.0
-                                   ? withVoxel(given, std::max(autoVoxelSize(source), autoVoxelSize(target)))
-                                   : given;
-  return matchDescribedClouds(describeCloud(source, params, "source"),
-                              describeCloud(target, params, "target"), params);
+  const FeatureParams params =
+      given.voxel_size == 0.0
+          ? withVoxel(given, std::max(autoVoxelSize(source, stop), autoVoxelSize(target, stop)))
+          : given;
+  const DescribedCloud described_source = describeCloud(source, params, "source", stop);
+  return matchDescribedClouds(described_source, describeCloud(target, params, "target", stop), params, stop);
 }
 
 MacParams inCloudUnits(const MacParams& mac_params, const FeatureParams& feature_params,
@@ -306,6 +328,8 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
   }
   try {
     result.features = front_end();
+  } catch (const Cancelled& e) {
+    return fail(RegistrationStatus::kCancelled, e.what());
   } catch (const std::invalid_argument& e) {
     return fail(RegistrationStatus::kInvalidInput, e.what());
   } catch (const std::exception& e) {
@@ -314,6 +338,12 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
   if (stopRequested(stop)) return fail(RegistrationStatus::kCancelled, "cancelled after the front end");
   const MacParams params = inCloudUnits(mac_params, feature_params, result.features.stats);
   registration = registerCorrespondences(result.features.correspondences, params, stop);
+  if (stopRequested(stop) && registration.status != RegistrationStatus::kCancelled) {
+    // Done but for the verification against the clouds, which reads no flag: a stop wins over it, and the
+    // unverified transform goes.
+    registration.T_target_source = Eigen::Isometry3d::Identity();
+    return fail(RegistrationStatus::kCancelled, "cancelled before the verification against the clouds");
+  }
   verifyAlignment(result.features, params, registration);
   return result;
 }
@@ -323,8 +353,8 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
 CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
                                        const FeatureParams& feature_params, const MacParams& mac_params,
                                        const StopFlag* stop) {
-  return registerWith([&] { return computeCorrespondences(source, target, feature_params); }, feature_params,
-                      mac_params, stop);
+  return registerWith([&] { return computeCorrespondences(source, target, feature_params, stop); },
+                      feature_params, mac_params, stop);
 }
 
 CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
@@ -333,8 +363,10 @@ CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const
   // An auto voxel size follows the target, described before the source was known.
   const FeatureParams params = withVoxel(feature_params, target.params.voxel_size);
   return registerWith(
-      [&] { return matchDescribedClouds(describeCloud(source, params, "source"), target, params); }, params,
-      mac_params, stop);
+      [&] {
+        return matchDescribedClouds(describeCloud(source, params, "source", stop), target, params, stop);
+      },
+      params, mac_params, stop);
 }
 
 }  // namespace mac_registration

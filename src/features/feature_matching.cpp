@@ -487,7 +487,8 @@ NearestDescriptors fromSquared(const BestTwo& b) {
 
 std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& queries,
                                                              const DescriptorIndex& reference, int threads,
-                                                             std::vector<NearestDescriptors>* reverse) {
+                                                             std::vector<NearestDescriptors>* reverse,
+                                                             const StopFlag* stop) {
   const DescriptorIndex::Packed& packed = reference.packed();
   static const ScanTiles scan = scanTilesForThisCpu();
   const int count = static_cast<int>(queries.size());
@@ -521,6 +522,7 @@ std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& qu
     int* cq = reverse ? column_query.data() + offset : nullptr;
 #pragma omp for schedule(dynamic, 1)
     for (int c = 0; c < chunks; ++c) {
+      if (stopRequested(stop)) continue;  // a chunk scans every tile: milliseconds on a large target
       const int begin = c * kQueryChunk, end = std::min(count, (c + 1) * kQueryChunk);
       if (reverse) {
         scanQueryChunk(queries, query_norms, order.data(), begin, end, packed, scan, best, cd, cq);
@@ -529,6 +531,7 @@ std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& qu
       }
     }
   }
+  throwIfStopped(stop, "matching descriptors");
   std::vector<NearestDescriptors> result(queries.size());
   for (int q = 0; q < count; ++q) result[q] = fromSquared(best[q]);
   if (reverse) {
@@ -559,7 +562,7 @@ std::vector<NearestDescriptors> nearestDescriptorsBruteForce(const FpfhCloud& qu
 std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& queries,
                                                          const std::vector<int>* which,
                                                          const DescriptorIndex& reference, int k,
-                                                         double epsilon, int threads) {
+                                                         double epsilon, int threads, const StopFlag* stop) {
   pcl::KdTreeFLANN<pcl::FPFHSignature33> tree = reference.tree().flann;
   tree.setEpsilon(static_cast<float>(epsilon));
   std::vector<NearestDescriptors> result(queries.size());
@@ -568,8 +571,10 @@ std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& querie
   {
     pcl::Indices indices(k);
     std::vector<float> squared(k);
+    StopCheck check(stop);
 #pragma omp for schedule(dynamic, 64)
     for (int i = 0; i < count; ++i) {
+      if (check.stopped()) continue;
       const int q = which ? (*which)[i] : i;
       const int found = tree.nearestKSearch(queries[q], k, indices, squared);
       if (found < 1) continue;
@@ -578,6 +583,7 @@ std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& querie
       if (found > 1) result[q].second_distance = std::sqrt(squared[1]);
     }
   }
+  throwIfStopped(stop, "matching descriptors");
   return result;
 }
 
@@ -599,7 +605,8 @@ std::vector<int> nearestTargets(const std::vector<NearestDescriptors>& forward, 
 }  // namespace
 
 std::vector<FeatureMatch> matchFeatures(const DescriptorIndex& source, const DescriptorIndex& target,
-                                        const FeatureParams& params, MatchingStats& stats) {
+                                        const FeatureParams& params, MatchingStats& stats,
+                                        const StopFlag* stop) {
   stats = MatchingStats{};
   const FpfhCloud& source_descriptors = *source.descriptors();
   const FpfhCloud& target_descriptors = *target.descriptors();
@@ -611,14 +618,14 @@ std::vector<FeatureMatch> matchFeatures(const DescriptorIndex& source, const Des
   // descriptors, doc/decisions/exact-descriptor-search.md).
   if (params.match_epsilon == 0.0) {
     forward = nearestDescriptorsBruteForce(source_descriptors, target, threads,
-                                           params.mutual_filter ? &backward : nullptr);
+                                           params.mutual_filter ? &backward : nullptr, stop);
   } else {
     forward = nearestDescriptorsKdTree(source_descriptors, nullptr, target, ratio_test ? 2 : 1,
-                                       params.match_epsilon, threads);
+                                       params.match_epsilon, threads, stop);
     if (params.mutual_filter) {
       const std::vector<int> asked = nearestTargets(forward, target_descriptors.size());
-      backward =
-          nearestDescriptorsKdTree(target_descriptors, &asked, source, 1, params.match_epsilon, threads);
+      backward = nearestDescriptorsKdTree(target_descriptors, &asked, source, 1, params.match_epsilon,
+                                          threads, stop);
     }
   }
 
@@ -650,8 +657,9 @@ std::vector<FeatureMatch> matchFeatures(const DescriptorIndex& source, const Des
 }
 
 std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const FpfhCloud::ConstPtr& target,
-                                        const FeatureParams& params, MatchingStats& stats) {
-  return matchFeatures(DescriptorIndex(source), DescriptorIndex(target), params, stats);
+                                        const FeatureParams& params, MatchingStats& stats,
+                                        const StopFlag* stop) {
+  return matchFeatures(DescriptorIndex(source), DescriptorIndex(target), params, stats, stop);
 }
 
 }  // namespace mac_registration

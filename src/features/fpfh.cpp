@@ -110,7 +110,7 @@ struct SpfhTable {
 constexpr double kCountTableBytes = 256.0 * 1024 * 1024;
 
 SpfhTable computeSpfh(const PairInputs& in, const std::vector<Neighbourhood>& hoods,
-                      const std::vector<int>& needed, int threads) {
+                      const std::vector<int>& needed, int threads, const StopFlag* stop) {
   const std::size_t m = in.points.size();
   std::vector<char> is_needed(m, 0);
   for (const int s : needed) is_needed[s] = 1;
@@ -123,8 +123,10 @@ SpfhTable computeSpfh(const PairInputs& in, const std::vector<Neighbourhood>& ho
   {
     std::vector<std::uint32_t>& mine = counts[omp_get_thread_num()];
     mine.assign(m * kBins, 0);
+    StopCheck check(stop);
 #pragma omp for schedule(dynamic, 32)
     for (int j = 0; j < count; ++j) {
+      if (check.stopped()) continue;
       const int p = needed[j];
       std::uint32_t* row_p = mine.data() + static_cast<std::size_t>(p) * kBins;
       for (const int q : hoods[p].indices) {
@@ -142,17 +144,19 @@ SpfhTable computeSpfh(const PairInputs& in, const std::vector<Neighbourhood>& ho
       }
     }
   }
+  throwIfStopped(stop, "computing FPFH");
   SpfhTable table;
   table.values.assign(m * kRowStride, 0.0f);
   table.nonzero.assign(m, 0);
 #pragma omp parallel num_threads(threads)
   {
     std::vector<float> repeated;  // repeated[k]: the increment added k times, as PCL's bins grow
+    StopCheck check(stop);
 #pragma omp for schedule(dynamic, 64)
     for (int j = 0; j < count; ++j) {
       const int p = needed[j];
       const std::size_t size = hoods[p].indices.size();
-      if (size < 2) continue;
+      if (size < 2 || check.stopped()) continue;
       const float increment = 100.0f / static_cast<float>(size - 1);
       repeated.assign(1, 0.0f);
       std::uint64_t mask = 0;
@@ -169,6 +173,7 @@ SpfhTable computeSpfh(const PairInputs& in, const std::vector<Neighbourhood>& ho
       table.nonzero[p] = mask;
     }
   }
+  throwIfStopped(stop, "computing FPFH");
   return table;
 }
 
@@ -251,34 +256,42 @@ int threadCount(int num_threads) { return num_threads > 0 ? num_threads : omp_ge
 }  // namespace
 
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,
-                           const NormalCloud::ConstPtr& surface_normals, double radius, int num_threads) {
+                           const NormalCloud::ConstPtr& surface_normals, double radius, int num_threads,
+                           const StopFlag* stop) {
   if (!(radius > 0.0) || !std::isfinite(radius))
     throw std::invalid_argument("FPFH radius must be a finite length > 0 m, got " + std::to_string(radius));
   const int threads = threadCount(num_threads);
   const SurfaceGrid grid(*surface, radius);
   const std::vector<Neighbourhood> keypoint_hoods =
-      searchAll(grid, *keypoints, allIndices(keypoints->size()), true, threads);
+      searchAll(grid, *keypoints, allIndices(keypoints->size()), true, threads, stop);
   const bool same = keypoints == surface;
   // When the keypoints are the surface their lists serve both steps; else the SPFH step needs the
   // surface neighbours of the surface points the keypoints reach (PCL's setSearchSurface does the same).
   const std::vector<int> needed =
       same ? allIndices(surface->size()) : neededSurfacePoints(keypoint_hoods, surface->size());
   std::vector<Neighbourhood> surface_hoods;
-  if (!same) surface_hoods = searchAll(grid, *surface, needed, false, threads);
+  if (!same) surface_hoods = searchAll(grid, *surface, needed, false, threads, stop);
   const SpfhTable table = computeSpfh(pairInputs(*surface, *surface_normals),
-                                      same ? keypoint_hoods : surface_hoods, needed, threads);
+                                      same ? keypoint_hoods : surface_hoods, needed, threads, stop);
   auto features = pcl::make_shared<FpfhCloud>();
   const int n = static_cast<int>(keypoints->size());
   features->resize(n);
   features->header = keypoints->header;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 64)
-  for (int k = 0; k < n; ++k) weightAt(table, keypoint_hoods[k], (*features)[k]);
+#pragma omp parallel num_threads(threads)
+  {
+    StopCheck check(stop);
+#pragma omp for schedule(dynamic, 64)
+    for (int k = 0; k < n; ++k) {
+      if (!check.stopped()) weightAt(table, keypoint_hoods[k], (*features)[k]);
+    }
+  }
+  throwIfStopped(stop, "computing FPFH");
   return features;
 }
 
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& points, const NormalCloud::ConstPtr& normals,
-                           double radius, int num_threads) {
-  return computeFpfh(points, points, normals, radius, num_threads);
+                           double radius, int num_threads, const StopFlag* stop) {
+  return computeFpfh(points, points, normals, radius, num_threads, stop);
 }
 
 bool isUsableDescriptor(const pcl::FPFHSignature33& descriptor) {

@@ -12,7 +12,7 @@
 namespace mac_registration {
 
 NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const PointCloud::ConstPtr& surface,
-                                 double radius, int num_threads) {
+                                 double radius, int num_threads, const StopFlag* stop) {
   if (!(radius > 0.0) || !std::isfinite(radius))
     throw std::invalid_argument("normal radius must be a finite length > 0 m, got " + std::to_string(radius));
   // PCL's NormalEstimationOMP, point for point: the same neighbour lists in the same order (the grid
@@ -35,8 +35,10 @@ NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const Point
   {
     Neighbourhood hood;
     std::vector<std::uint64_t> keys, scratch;
+    StopCheck check(stop);
 #pragma omp for schedule(dynamic, 256)
     for (int i = 0; i < n; ++i) {
+      if (check.stopped()) continue;
       pcl::Normal& out = (*normals)[i];
       grid.search((*points)[i], true, hood, keys, scratch);
       Eigen::Vector4f plane;
@@ -50,12 +52,14 @@ NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const Point
                                       out.normal_y, out.normal_z);
     }
   }
+  throwIfStopped(stop, "estimating normals");
   normals->is_dense = dense;
   return normals;
 }
 
-NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radius, int num_threads) {
-  return estimateNormals(points, points, radius, num_threads);
+NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, double radius, int num_threads,
+                                 const StopFlag* stop) {
+  return estimateNormals(points, points, radius, num_threads, stop);
 }
 
 }  // namespace mac_registration

@@ -11,7 +11,8 @@
 
 namespace mac_registration {
 
-double meanNearestNeighbourDistance(const PointCloud::ConstPtr& cloud, std::size_t max_queries) {
+double meanNearestNeighbourDistance(const PointCloud::ConstPtr& cloud, std::size_t max_queries,
+                                    const StopFlag* stop) {
   const std::size_t n = cloud->size();
   if (n < 2 || max_queries == 0) return 0.0;
   const std::string bound = coordinateBoundProblem(*cloud);
@@ -26,6 +27,7 @@ double meanNearestNeighbourDistance(const PointCloud::ConstPtr& cloud, std::size
   pcl::Indices neighbours(2);
   std::vector<float> squared(2);
   for (std::size_t q = 0; q < queries; ++q) {
+    if (q % 1024 == 0) throwIfStopped(stop, "estimating the resolution");
     const auto index = static_cast<pcl::index_t>(std::min(n - 1, std::size_t(q * stride)));
     // k = 2: the first neighbour is the query point itself. A duplicate point gives distance 0, which
     // belongs in the mean: the cloud really is that dense there.

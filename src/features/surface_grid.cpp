@@ -195,15 +195,20 @@ std::size_t SurfaceGrid::cellIndex(const Eigen::Vector3i& c) const {
 }
 
 std::vector<Neighbourhood> searchAll(const SurfaceGrid& grid, const PointCloud& queries,
-                                     const std::vector<int>& which, bool sorted, int threads) {
+                                     const std::vector<int>& which, bool sorted, int threads,
+                                     const StopFlag* stop) {
   std::vector<Neighbourhood> out(queries.size());
   const int n = static_cast<int>(which.size());
 #pragma omp parallel num_threads(threads)
   {
     std::vector<std::uint64_t> keys, scratch;
+    StopCheck check(stop);
 #pragma omp for schedule(dynamic, 64)
-    for (int j = 0; j < n; ++j) grid.search(queries[which[j]], sorted, out[which[j]], keys, scratch);
+    for (int j = 0; j < n; ++j) {
+      if (!check.stopped()) grid.search(queries[which[j]], sorted, out[which[j]], keys, scratch);
+    }
   }
+  throwIfStopped(stop, "searching neighbourhoods");
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
 namespace mac_registration {
@@ -51,9 +52,11 @@ class SurfaceGrid {
   std::vector<int> indices_;
 };
 
-// The neighbourhoods of the queries `which` (the others stay empty), on `threads` threads.
+// The neighbourhoods of the queries `which` (the others stay empty), on `threads` threads. Throws
+// Cancelled when `stop` is raised before it is done.
 std::vector<Neighbourhood> searchAll(const SurfaceGrid& grid, const PointCloud& queries,
-                                     const std::vector<int>& which, bool sorted, int threads);
+                                     const std::vector<int>& which, bool sorted, int threads,
+                                     const StopFlag* stop);
 
 // 0, 1, ..., n - 1.
 std::vector<int> allIndices(std::size_t n);

@@ -32,6 +32,16 @@ mac_registration::RegistrationResult invalidInput(const std::string& message) {
   return msg;
 }
 
+// A registration the stop flag ended before the core ran (e.g. while the target was described).
+mac_registration::RegistrationResult cancelled(const std::string& message) {
+  MacResult result;
+  result.status = RegistrationStatus::kCancelled;
+  result.message = message;
+  mac_registration::RegistrationResult msg;
+  fillResultMsg(result, msg);
+  return msg;
+}
+
 // A failure after the registration itself: the counters stay, the transform goes back to the identity.
 void markFailed(mac_registration::RegistrationResult& msg, std::uint8_t status, const std::string& message) {
   msg.success = false;
@@ -374,7 +384,9 @@ std::shared_ptr<const DescribedCloud> RegistrationServer::describeTarget(
   const auto start = Clock::now();
   const CloudConversion cloud = toPointCloud(target);
   if (!cloud.error.empty()) throw std::invalid_argument("target cloud: " + cloud.error);
-  auto described = std::make_shared<const DescribedCloud>(describeCloud(*cloud.cloud, params, "target"));
+  // Reads the stop flag: a large target takes seconds to describe, longer than a shutdown may wait.
+  auto described =
+      std::make_shared<const DescribedCloud>(describeCloud(*cloud.cloud, params, "target", &stop_));
   dropped = cloud.dropped_non_finite;
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++target_descriptions_;
@@ -418,6 +430,8 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
       start = Clock::now();
       target_described = describedTarget(target, cfg.features, target_dropped, cache_target);
       outcome.times.target_description = millisecondsSince(start);
+    } catch (const Cancelled& e) {
+      outcome.msg = cancelled(e.what());  // nothing cached: the next registration describes it afresh
     } catch (const std::invalid_argument& e) {
       outcome.msg = invalidInput(e.what());
     }

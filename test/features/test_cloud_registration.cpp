@@ -4,7 +4,9 @@
 #include <pcl/kdtree/kdtree_flann.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <thread>
 #include <vector>
@@ -541,6 +543,56 @@ TEST(RealPair, ADescribedCloudWithOtherDescriptorsIsNotSearchedThroughItsOldInde
   const auto expected = matchesWithFreshTrees(s.descriptors, s.descriptors, params, stats);
   ASSERT_EQ(c.target_indices.size(), expected.size());
   for (std::size_t k = 0; k < expected.size(); ++k) ASSERT_EQ(c.target_indices[k], expected[k].target);
+}
+
+// The scan tiled `tiles` x `tiles` times, 5 m apart: each copy keeps its keypoints, so the description
+// grows with the copies (~4 000 keypoints each).
+PointCloud tiledCloud(const PointCloud& scan, int tiles) {
+  PointCloud tiled;
+  tiled.reserve(std::size_t(tiles) * tiles * scan.size());
+  for (int i = 0; i < tiles; ++i) {
+    for (int j = 0; j < tiles; ++j) {
+      for (const auto& p : scan) tiled.push_back(pcl::PointXYZ(p.x + 5.0f * i, p.y + 5.0f * j, p.z));
+    }
+  }
+  return tiled;
+}
+
+TEST(Stop, ARaisedFlagCancelsBeforeTheFrontEnd) {
+  const StopFlag stop{true};
+  const CloudRegistrationResult r =
+      registerClouds(*realPair().source, *realPair().target, FeatureParams{}, MacParams{}, &stop);
+  EXPECT_EQ(r.registration.status, RegistrationStatus::kCancelled) << r.registration.message;
+  EXPECT_NE(r.registration.message.find("describing the source cloud"), std::string::npos)
+      << r.registration.message;
+  EXPECT_THROW(describeCloud(*realPair().target, FeatureParams{}, "target", &stop), Cancelled);
+}
+
+// A stop raised while a large cloud is described ends the registration within a few of the front end's
+// checks (every 4096 points of a pass), not after the description's seconds.
+TEST(Stop, AFlagRaisedDuringTheDescriptionOfALargeCloudEndsItPromptly) {
+  const PointCloud large = tiledCloud(*realPair().target, 12);  // 1.9 M points, ~600 k keypoints
+  StopFlag stop{false};
+  for (const int after_ms : {50, 400, 1500}) {  // in the voxel grid, the normals, the FPFH
+    stop = false;
+    std::chrono::steady_clock::time_point raised;
+    std::thread stopper([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(after_ms));
+      raised = std::chrono::steady_clock::now();
+      stop = true;
+    });
+    const CloudRegistrationResult r =
+        registerClouds(large, *realPair().target, FeatureParams{}, MacParams{}, &stop);
+    const auto ended = std::chrono::steady_clock::now();
+    stopper.join();
+    EXPECT_EQ(r.registration.status, RegistrationStatus::kCancelled) << r.registration.message;
+    EXPECT_NE(r.registration.message.find("describing the source cloud"), std::string::npos)
+        << r.registration.message;
+    const double ms = std::chrono::duration<double, std::milli>(ended - raised).count();
+    std::printf("stop raised %d ms into the registration: %s, %.0f ms after it\n", after_ms,
+                r.registration.message.c_str(), ms);
+    EXPECT_LT(ms, 300.0) << r.registration.message;
+  }
 }
 
 }  // namespace

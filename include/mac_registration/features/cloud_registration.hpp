@@ -73,23 +73,28 @@ bool resolutionNeeded(const FeatureParams& params);
 // Throws std::invalid_argument for invalid params, a cloud with fewer than 3 finite points, or one whose
 // coordinates are beyond kMaxAbsCoordinate or so large that float32 spaces them more than a quarter voxel
 // apart (the voxel grid and FPFH would see a staircase); `role` ("source", "target") names the cloud in
-// that message. All of it is checked before any kd-tree or voxel grid is built.
-DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role);
+// that message. All of it is checked before any kd-tree or voxel grid is built. Throws Cancelled when `stop`
+// is raised before it is done: it is read between the stages and inside their loops over points, so that a
+// shutdown does not wait for the description of a large cloud.
+DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role,
+                             const StopFlag* stop = nullptr);
 
 // Whether `cloud` was described with the voxel size, radii and support factor of `params` (what its
 // descriptors depend on); with voxel_size auto (0), any voxel size.
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params);
 
 // Matches two described clouds. Throws std::invalid_argument when they were described with different
-// voxel sizes, radii or support factors, or with other ones than `params` holds.
+// voxel sizes, radii or support factors, or with other ones than `params` holds; Cancelled when `stop` is
+// raised before it is done.
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
-                                            const FeatureParams& params);
+                                            const FeatureParams& params, const StopFlag* stop = nullptr);
 
 // Clouds in (any frame each, may hold NaNs, may be organized), correspondences out: describeCloud on both
 // (with voxel_size auto, the coarser of their autoVoxelSize), then matchDescribedClouds. Throws
-// std::invalid_argument for invalid params or a cloud with fewer than 3 finite points.
+// std::invalid_argument for invalid params or a cloud with fewer than 3 finite points, Cancelled when
+// `stop` is raised before it is done.
 FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
-                                              const FeatureParams& params);
+                                              const FeatureParams& params, const StopFlag* stop = nullptr);
 
 struct CloudRegistrationResult {
   MacResult registration;  // its inlier indices refer to correspondences below
@@ -106,11 +111,12 @@ MacParams inCloudUnits(const MacParams& mac_params, const FeatureParams& feature
 
 // The voxel size that leaves `cloud` about kAutoVoxelKeypoints keypoints (or half its finite points, for
 // a smaller cloud): features.voxel_size = auto. Deterministic; 0 for fewer than 3 finite points.
-double autoVoxelSize(const PointCloud& cloud);
+// Throws Cancelled when `stop` is raised before it is done (read between its three counts).
+double autoVoxelSize(const PointCloud& cloud, const StopFlag* stop = nullptr);
 
 // Front end then the MAC core. Never throws: invalid feature parameters come back as a failed
 // registration with status kInvalidParameters, unusable clouds with kInvalidInput, each with a message.
-// A raised `stop` ends it early with status kCancelled.
+// A raised `stop` ends it early, in the front end as in the core, with status kCancelled.
 CloudRegistrationResult registerClouds(const PointCloud& source, const PointCloud& target,
                                        const FeatureParams& feature_params, const MacParams& mac_params,
                                        const StopFlag* stop = nullptr);

@@ -7,6 +7,7 @@
 #include <mutex>
 #include <vector>
 
+#include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/feature_params.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
@@ -97,24 +98,29 @@ struct NearestDescriptors {
 // Ties go to the lowest reference index (the second distance then equals the nearest). With `reverse`,
 // the same scan also gives each reference descriptor's nearest query (ties: the lowest query index;
 // second_distance left infinite) into *reverse, reference.size() entries. The results do not depend on
-// the number of threads.
+// the number of threads. Throws Cancelled when `stop` is raised before it is done (read every chunk of
+// queries).
 std::vector<NearestDescriptors> nearestDescriptorsBruteForce(
     const FpfhCloud& queries, const DescriptorIndex& reference, int threads,
-    std::vector<NearestDescriptors>* reverse = nullptr);
+    std::vector<NearestDescriptors>* reverse = nullptr, const StopFlag* stop = nullptr);
 
 // The k (1 or 2) nearest by reference.tree(), exact for epsilon = 0, else within (1 + epsilon) of the
-// nearest distance, for the queries at `which` (all when null; the other entries stay empty).
+// nearest distance, for the queries at `which` (all when null; the other entries stay empty). Throws
+// Cancelled when `stop` is raised before it is done.
 std::vector<NearestDescriptors> nearestDescriptorsKdTree(const FpfhCloud& queries,
                                                          const std::vector<int>* which,
                                                          const DescriptorIndex& reference, int k,
-                                                         double epsilon, int threads);
+                                                         double epsilon, int threads,
+                                                         const StopFlag* stop = nullptr);
 
 // Each source descriptor's nearest target descriptor (params.match_epsilon = 0: exact, by brute force, ties
 // to the lowest target index; else the kd-tree, within (1 + match_epsilon) of the nearest distance),
 // optionally kept only when mutual (params.mutual_filter) and distinctive (params.ratio_test); then the
-// params.max_correspondences closest, ascending by distance (ties by source index: deterministic).
+// params.max_correspondences closest, ascending by distance (ties by source index: deterministic). Throws
+// Cancelled when `stop` is raised before it is done.
 std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const FpfhCloud::ConstPtr& target,
-                                        const FeatureParams& params, MatchingStats& stats);
+                                        const FeatureParams& params, MatchingStats& stats,
+                                        const StopFlag* stop = nullptr);
 
 // The same on indices built before (either may be built or not yet). Brute force: the target's packed
 // descriptors are scanned by every source descriptor, and the mutual check's reverse nearest comes from
@@ -122,6 +128,7 @@ std::vector<FeatureMatch> matchFeatures(const FpfhCloud::ConstPtr& source, const
 // source descriptor, the source's only with params.mutual_filter, by the targets some source descriptor
 // found nearest. The same matches as above, bit for bit.
 std::vector<FeatureMatch> matchFeatures(const DescriptorIndex& source, const DescriptorIndex& target,
-                                        const FeatureParams& params, MatchingStats& stats);
+                                        const FeatureParams& params, MatchingStats& stats,
+                                        const StopFlag* stop = nullptr);
 
 }  // namespace mac_registration

@@ -1,5 +1,6 @@
 #pragma once
 
+#include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
 namespace mac_registration {
@@ -13,13 +14,15 @@ namespace mac_registration {
 // giving the kd-tree's lists), compute a pair feature once for both of its points where PCL's function
 // gives both the same, and store the SPFH row by row.
 // A surface coarser than the keypoints makes each descriptor a sum over fewer pair features; the
-// keypoints' own normals are not used. NaN where a keypoint has no surface point within `radius`.
+// keypoints' own normals are not used. NaN where a keypoint has no surface point within `radius`. Throws
+// Cancelled when `stop` is raised before it is done (each thread reads it every 4096 points of a pass).
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& keypoints, const PointCloud::ConstPtr& surface,
-                           const NormalCloud::ConstPtr& surface_normals, double radius, int num_threads);
+                           const NormalCloud::ConstPtr& surface_normals, double radius, int num_threads,
+                           const StopFlag* stop = nullptr);
 
 // The keypoints as their own surface: PCL's OpenMP estimator's descriptors bit for bit.
 FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& points, const NormalCloud::ConstPtr& normals,
-                           double radius, int num_threads);
+                           double radius, int num_threads, const StopFlag* stop = nullptr);
 
 // Whether a descriptor can be matched: finite and not all zero (a point without neighbours).
 bool isUsableDescriptor(const pcl::FPFHSignature33& descriptor);

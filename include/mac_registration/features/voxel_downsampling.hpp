@@ -1,5 +1,6 @@
 #pragma once
 
+#include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
 namespace mac_registration {
@@ -10,7 +11,8 @@ namespace mac_registration {
 // radix sort over the occupied box.
 // Throws std::invalid_argument when the cloud spans more than 2^21 voxels along an axis, or a coordinate
 // is not finite or lies more than 2^52 voxels from the origin (no finite input overflows the integer
-// voxel indices).
-PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size, int num_threads = 1);
+// voxel indices). Throws Cancelled when `stop` is raised before it is done (read every 16k points).
+PointCloud::Ptr voxelDownsample(const PointCloud& cloud, double voxel_size, int num_threads = 1,
+                                const StopFlag* stop = nullptr);
 
 }  // namespace mac_registration
