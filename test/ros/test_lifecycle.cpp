@@ -1,23 +1,29 @@
 // Starting and stopping, against a real nodelet manager and real node processes (test/ros/lifecycle.test):
 // invalid parameters refuse a nodelet (the manager lives on, `nodelet load` fails) and make the standalone
-// node say why and exit; the node logs; unloading the nodelet or interrupting the node ends a long
-// registration instead of waiting for it.
+// node say why and exit; the node logs; unloading the nodelet, interrupting the node or `rosnode kill` ends
+// a long registration (in the clique search, or describing a 5 M-point target) within a second, and the
+// call in progress gets its CANCELLED result.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <mac_registration/Register.h>
 #include <mac_registration/RegisterCorrespondences.h>
 #include <nodelet/NodeletList.h>
 #include <nodelet/NodeletLoad.h>
 #include <nodelet/NodeletUnload.h>
+#include <ros/master.h>
+#include <ros/network.h>
 #include <ros/ros.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <map>
 #include <mutex>
@@ -28,7 +34,9 @@
 #include <vector>
 
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/ros/conversions.hpp"
+#include "xyz_cloud.hpp"
 
 extern char** environ;
 
@@ -118,6 +126,10 @@ bool isLoaded(const std::string& name) {
   const auto names = loadedNodelets();
   return std::find(names.begin(), names.end(), name) != names.end();
 }
+
+// [s] How long a stop (SIGINT, rosnode kill, an unload) may take to end the process or the nodelet, the
+// call in progress answered.
+constexpr double kStopWithin = 1.0;
 
 bool loadNodelet(const std::string& name) {
   nodelet::NodeletLoad load;
@@ -323,9 +335,9 @@ TEST(Lifecycle, ALongCallHoldsUpNothingAndUnloadingStopsIt) {
   RecordProperty("unload_seconds", std::to_string(unload_s));
   std::printf("unload during a registration: %.2f s (the call returned after %.2f s: %s)\n", unload_s, call_s,
               answered ? statusName(result.status).c_str() : "no answer");
-  if (answered) {
-    EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
-  }
+  EXPECT_LT(unload_s, kStopWithin);
+  ASSERT_TRUE(answered) << "the call got a transport error instead of its result";
+  EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
   EXPECT_FALSE(isLoaded("/long"));  // and the manager still answers
 }
 
@@ -381,9 +393,129 @@ TEST(Lifecycle, InterruptingTheNodeStopsALongRegistration) {
   std::printf("SIGINT during a registration: the node exited after %.2f s (the call: %s)\n", exit_s,
               answered ? statusName(result.status).c_str() : "no answer");
   EXPECT_EQ(node.exitStatus(), 0) << node.output();
-  if (answered) {
-    EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
+  EXPECT_LT(exit_s, kStopWithin);
+  ASSERT_TRUE(answered) << "the call got a transport error instead of its result";
+  EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
+}
+
+// ~5 M points: the shipped scan 0 tiled 19 x 19 times, 5 m apart, each copy jittered by up to 1 mm. Each
+// copy keeps its ~4 000 keypoints, so describing it (a voxel grid over 5 M points, then normals and FPFH
+// of 1.5 M keypoints) takes tens of seconds on two cores unless a stop ends it.
+sensor_msgs::PointCloud2 hugeTarget() {
+  const PointCloud::Ptr scan =
+      loadCloud(std::string(MAC_DATA_DIR) + "/redkitchen_4_0/target_cloud_bin_0.pcd");
+  std::mt19937 random(3);
+  std::uniform_real_distribution<float> jitter(-0.001f, 0.001f);
+  const int tiles = 19;
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(std::size_t(tiles) * tiles * scan->size());
+  for (int i = 0; i < tiles; ++i) {
+    for (int j = 0; j < tiles; ++j) {
+      const Eigen::Vector3f offset(5.0f * i, 5.0f * j, 0.0f);
+      for (const auto& p : *scan) {
+        points.push_back(p.getVector3fMap() + offset + Eigen::Vector3f(jitter(random), jitter(random), 0.0f));
+      }
+    }
   }
+  return test::xyzCloud(points, "huge_target");
+}
+
+// Started with the huge target in the request: its call is still in the target's description seconds later.
+std::future<std::pair<bool, mac_registration::RegistrationResult>> callWithHugeTarget(
+    const std::string& service) {
+  auto request = std::make_shared<mac_registration::Register::Request>();
+  request->target = hugeTarget();
+  request->source =
+      toPointCloud2(*loadCloud(std::string(MAC_DATA_DIR) + "/redkitchen_4_0/source_cloud_bin_4.pcd"),
+                    Eigen::Isometry3d::Identity(), std_msgs::Header());
+  request->source.header.frame_id = "small_source";
+  return std::async(std::launch::async, [service, request] {
+    mac_registration::Register srv;
+    srv.request = std::move(*request);
+    const bool answered = ros::service::call(service, srv);
+    return std::make_pair(answered, srv.response.result);
+  });
+}
+
+// Long enough after the call for the node to have received the 80 MB request and be describing it (the
+// voxel grid takes ~1 s of it, normals and FPFH tens), whatever else loads the machine.
+constexpr double kIntoTheDescription = 5.0;
+
+// The call is answered with CANCELLED, by a registration stopped while it described the target.
+void expectCancelledInTheDescription(bool answered, const mac_registration::RegistrationResult& result) {
+  ASSERT_TRUE(answered) << "the call got a transport error instead of its result";
+  EXPECT_EQ(result.status, mac_registration::RegistrationResult::CANCELLED) << result.message;
+  EXPECT_NE(result.message.find("describing the target cloud"), std::string::npos) << result.message;
+}
+
+// What `rosnode kill NAME` does: the node's XML-RPC `shutdown`, at the address the master gives for it.
+bool killNode(const std::string& name) {
+  XmlRpc::XmlRpcValue request, response, payload;
+  request[0] = ros::this_node::getName();
+  request[1] = name;
+  if (!ros::master::execute("lookupNode", request, response, payload, false)) return false;
+  std::string host;
+  std::uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port)) return false;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue params, result;
+  params[0] = ros::this_node::getName();
+  params[1] = "test_lifecycle: rosnode kill";
+  return client.execute("shutdown", params, result) && !client.isFault();
+}
+
+// A standalone node stopped (by `stop`) while it describes a huge target: it exits within a second and the
+// call gets its CANCELLED result first.
+void expectNodeStoppedInTheDescription(const std::string& name,
+                                       const std::function<void(NodeProcess&)>& stop) {
+  NodeProcess node({"rosrun", "mac_registration", "registration_node", "__name:=" + name},
+                   "/tmp/mac_registration_" + name + ".log");
+  ASSERT_TRUE(node.started());
+  ASSERT_TRUE(ros::service::waitForService("/" + name + "/register", ros::Duration(60.0)));
+  auto call = callWithHugeTarget("/" + name + "/register");
+  ASSERT_EQ(call.wait_for(std::chrono::duration<double>(kIntoTheDescription)), std::future_status::timeout)
+      << "the registration ended before the stop";
+  const ros::WallTime start = ros::WallTime::now();
+  stop(node);
+  ASSERT_TRUE(node.waitForExit(ros::WallDuration(60.0))) << node.output();
+  const double exit_s = (ros::WallTime::now() - start).toSec();
+  ASSERT_EQ(call.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  const auto [answered, result] = call.get();
+  std::printf("%s during a description: the node exited after %.2f s (the call: %s)\n", name.c_str(), exit_s,
+              answered ? (statusName(result.status) + ": " + result.message).c_str() : "no answer");
+  EXPECT_EQ(node.exitStatus(), 0) << node.output();
+  EXPECT_LT(exit_s, kStopWithin);
+  expectCancelledInTheDescription(answered, result);
+}
+
+TEST(Lifecycle, InterruptingTheNodeStopsTheDescriptionOfAHugeTarget) {
+  expectNodeStoppedInTheDescription("interrupted_node", [](NodeProcess& node) { node.interrupt(); });
+}
+
+TEST(Lifecycle, RosnodeKillStopsTheDescriptionOfAHugeTarget) {
+  expectNodeStoppedInTheDescription("killed_node",
+                                    [](NodeProcess&) { ASSERT_TRUE(killNode("/killed_node")); });
+}
+
+TEST(Lifecycle, UnloadingTheNodeletStopsTheDescriptionOfAHugeTarget) {
+  ASSERT_TRUE(ros::service::waitForService(kManager + "/load_nodelet", ros::Duration(60.0)));
+  ASSERT_TRUE(loadNodelet("/describing"));
+  ASSERT_TRUE(ros::service::waitForService("/describing/register", ros::Duration(30.0)));
+  auto call = callWithHugeTarget("/describing/register");
+  ASSERT_EQ(call.wait_for(std::chrono::duration<double>(kIntoTheDescription)), std::future_status::timeout)
+      << "the registration ended before the unload";
+  const ros::WallTime start = ros::WallTime::now();
+  nodelet::NodeletUnload unload;
+  unload.request.name = "/describing";
+  EXPECT_TRUE(ros::service::call(kManager + "/unload_nodelet", unload) && unload.response.success);
+  const double unload_s = (ros::WallTime::now() - start).toSec();
+  ASSERT_EQ(call.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  const auto [answered, result] = call.get();
+  std::printf("unload during a description: %.2f s (the call: %s)\n", unload_s,
+              answered ? (statusName(result.status) + ": " + result.message).c_str() : "no answer");
+  EXPECT_LT(unload_s, kStopWithin);
+  expectCancelledInTheDescription(answered, result);
+  EXPECT_FALSE(isLoaded("/describing"));
 }
 
 }  // namespace
