@@ -21,9 +21,7 @@ import sys
 import threading
 import time
 
-import yaml
-
-from nodelet_harness import NODE, PACKAGE, Processes, percentiles
+from nodelet_harness import NODE, PACKAGE, Processes, overrides, percentiles
 
 DEFAULT_BAG = os.path.join(PACKAGE, "test", "data", "luminar_5_scans.bag")
 DEFAULT_REFERENCE = os.path.join(PACKAGE, "test", "data", "luminar_5_scans_reference.tsv")
@@ -53,16 +51,6 @@ def parse_arguments():
                              "for a subscriber)")
     parser.add_argument("--json", help="also write the report there")
     return parser.parse_args()
-
-
-def overrides(assignments):
-    params = {}
-    for assignment in assignments:
-        name, sep, text = assignment.partition("=")
-        if not sep or not name:
-            sys.exit("measure_stream: --set wants NAME=VALUE, got %r" % assignment)
-        params[name.strip().replace(".", "/")] = yaml.safe_load(text)
-    return params
 
 
 def read_scans(bag_path, topic):
@@ -331,7 +319,7 @@ def main():
     scans, gaps = read_scans(args.bag, args.topic)
     if not 0 <= args.target_index < len(scans):
         sys.exit("measure_stream: --target-index %d, but the bag holds %d scans" % (args.target_index, len(scans)))
-    params = overrides(args.set)
+    params = overrides(args.set, "measure_stream")
     processes = Processes(args.port, args.preset, name="measure_stream", params=params,
                           remaps={"source": SOURCE_TOPIC, "target": TARGET_TOPIC})
     try:

@@ -70,6 +70,20 @@ class Processes:
                     process.wait()
 
 
+def overrides(assignments, script):
+    """The node's private parameters from NAME=VALUE assignments (--set): a name relative to the node, dots
+    or slashes (features.voxel_size, features/voxel_size), a YAML value."""
+    import yaml
+
+    params = {}
+    for assignment in assignments:
+        name, sep, text = assignment.partition("=")
+        if not sep or not name:
+            sys.exit("%s: --set wants NAME=VALUE, got %r" % (script, assignment))
+        params[name.strip().replace(".", "/")] = yaml.safe_load(text)
+    return params
+
+
 def percentiles(values, quantiles=(0.5, 0.9)):
     """{"n", "p50_ms", "p90_ms", ..., "max_ms"} of values in milliseconds (nearest rank)."""
     if not values:

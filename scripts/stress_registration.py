@@ -7,7 +7,11 @@ It starts its own roscore (on --port, loopback only), a nodelet manager and the 
 (--no-bond) with a preset, and stops them when it is done; every loop is bounded by count or time.
 
     source ../mac_registration_ws/devel/setup.bash
-    python3 scripts/stress_registration.py [--duration 60] [--rate 10] [--service-threads 2] [--json FILE]
+    python3 scripts/stress_registration.py [--duration 60] [--rate 10] [--service-threads 2]
+        [--set service_threads=8 ...] [--json FILE]
+
+Every registration of the real scan registers the same pair, so each should give the same transform and
+inliers whatever runs beside it: the report counts the results that differ from the most common one.
 
 Exit status: 0 when nothing crashed and every input got its expected answer, 1 otherwise."""
 import argparse
@@ -17,7 +21,9 @@ import sys
 import threading
 import time
 
-from nodelet_harness import NODE, PACKAGE, Processes, percentiles
+from collections import Counter
+
+from nodelet_harness import NODE, PACKAGE, Processes, overrides, percentiles
 
 sys.path.insert(0, os.path.join(PACKAGE, "test", "ros"))
 
@@ -31,6 +37,8 @@ def parse_arguments():
                         help="every Nth parallel service call sends a corpus cloud instead of a valid scan")
     parser.add_argument("--port", type=int, default=11457, help="port of the roscore this run starts")
     parser.add_argument("--preset", default=os.path.join(PACKAGE, "config", "indoor_rgbd.yaml"))
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a private parameter of the node after the preset, e.g. service_threads=8")
     parser.add_argument("--json", help="also write the report there")
     return parser.parse_args()
 
@@ -52,6 +60,8 @@ class Run:
         self.target = xyz_cloud(read_pcd_xyz(os.path.join(data, "target_cloud_bin_0.pcd")), "fragment_0")
         self.lock = threading.Lock()
         self.stream_sent, self.stream_latency_ms, self.stream_results = {}, [], {}
+        # The transform and inliers of every successful registration of the real pair, by who asked.
+        self.outcomes = {"stream": [], "service": []}
         self.diagnostics = []
         rospy.Subscriber(NODE + "/result", RegistrationResult, self.on_result, queue_size=100)
         rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=10)
@@ -68,6 +78,8 @@ class Run:
             if sent is not None and msg.child_frame_id not in self.stream_results:
                 self.stream_results[msg.child_frame_id] = (msg.success, msg.message)
                 self.stream_latency_ms.append(1000.0 * (now - sent))
+                if msg.success and msg.child_frame_id.startswith("stream_"):
+                    self.outcomes["stream"].append(outcome(msg))
 
     def on_diagnostics(self, msg):
         for status in msg.status:
@@ -186,6 +198,8 @@ class Run:
                     with self.lock:
                         stats["valid_ms"].append(ms)
                         stats["valid_success"] += result.success
+                        if result.success:
+                            self.outcomes["service"].append(outcome(result))
                         if not result.success:
                             self.report["unexpected"].append(
                                 {"phase": "stream", "case": "parallel valid scan", "message": result.message})
@@ -247,6 +261,7 @@ class Run:
             "malformed_latency": percentiles(stats["malformed_ms"]),
             "service_errors": stats["service_errors"],
         }
+        self.report["agreement"] = agreement(self.outcomes)
 
     def final_check(self):
         self.report["load_average_end"] = os.getloadavg()[0]
@@ -257,6 +272,24 @@ class Run:
         except self.rospy.ServiceException as e:
             self.report["final_registration"] = {"success": False, "message": str(e)}
         self.check_alive("final")
+
+
+def outcome(result):
+    """What two registrations of the same pair must share: the inliers and the transform, bit for bit."""
+    t, q = result.transform.translation, result.transform.rotation
+    return (result.inliers, t.x, t.y, t.z, q.x, q.y, q.z, q.w)
+
+
+def agreement(outcomes):
+    """How many successful registrations of the real pair differ from the most common result."""
+    everything = outcomes["stream"] + outcomes["service"]
+    if not everything:
+        return {"successes": 0}
+    common, count = Counter(everything).most_common(1)[0]
+    return {"successes": len(everything), "most_common_inliers": common[0], "agreeing": count,
+            "differing_stream": sum(o != common for o in outcomes["stream"]),
+            "differing_service": sum(o != common for o in outcomes["service"]),
+            "inliers_seen": sorted(set(o[0] for o in everything))}
 
 
 def describe(latency):
@@ -285,6 +318,13 @@ def print_report(r):
         p["threads"], p["valid_calls"], p["valid_succeeded"], describe(p["valid_latency"])))
     print("parallel ~register malformed: %d calls, %d refused with their reason, latency %s; %d service errors"
           % (p["malformed_calls"], p["malformed_refused"], describe(p["malformed_latency"]), p["service_errors"]))
+    a = r["agreement"]
+    if a["successes"]:
+        print("same pair, same answer? %d successes: %d give the most common result (%d inliers), %d differ "
+              "(%d on the stream, %d ~register); inliers seen: %s"
+              % (a["successes"], a["agreeing"], a["most_common_inliers"],
+                 a["differing_stream"] + a["differing_service"], a["differing_stream"], a["differing_service"],
+                 ", ".join(str(i) for i in a["inliers_seen"])))
     f = r["final_registration"]
     print("final registration: %s%s" % ("success" if f["success"] else "FAILED: " + f["message"],
                                        " (%.0f ms)" % f["ms"] if "ms" in f else ""))
@@ -296,7 +336,8 @@ def print_report(r):
 
 def main():
     args = parse_arguments()
-    processes = Processes(args.port, args.preset, name="stress_registration")
+    processes = Processes(args.port, args.preset, name="stress_registration",
+                          params=overrides(args.set, "stress_registration"))
     try:
         processes.bring_up()
         import rospy
