@@ -293,7 +293,7 @@ void refineAndAccept(const BestHypothesis& best, const SanitizedCorrespondences&
 // The stages in order; each failure ends the registration with its reason, a raised stop flag between
 // any two of them.
 void runPipeline(const CorrespondenceSet& input, const MacParams& params, const StopFlag* stop,
-                 MacResult& result) {
+                 const PoseWitness* witness, MacResult& result) {
   SanitizedCorrespondences sane;
   if (!checkInput(input, params, sane, result)) return;
   const CorrespondenceSet& c = sane.correspondences;
@@ -338,17 +338,17 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
     return;
   }
   refineAndAccept(best, sane, evaluator, params, stop, result);
-  verifyRegistration(c, best.scored, evaluator, params, stop, result);  // judges successes only
+  verifyRegistration(c, best.scored, evaluator, params, stop, witness, result);  // judges successes only
 }
 
 }  // namespace
 
 MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params,
-                                  const StopFlag* stop) {
+                                  const StopFlag* stop, const PoseWitness* witness) {
   MacResult result;
   const auto start = Clock::now();
   try {
-    runPipeline(correspondences, params, stop, result);
+    runPipeline(correspondences, params, stop, witness, result);
   } catch (const std::bad_alloc&) {
     fail(result, RegistrationStatus::kInternalError,
          "out of memory; lower graph.max_edges or cliques.max_cliques");

@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <utility>
 
 #include <omp.h>
 
@@ -447,18 +448,46 @@ void decideVerification(const VerificationParams& params, MacResult& result) {
   result.message = text.str();
 }
 
+namespace {
+
+// `into`'s fields that `from` measured, replaced by `from`'s.
+void takeMeasured(const VerificationSignals& from, VerificationSignals& into) {
+  const auto take = [](double measured, double& field) {
+    if (!std::isnan(measured)) field = measured;
+  };
+  take(from.rival_ratio, into.rival_ratio);
+  take(from.rival_rotation_deg, into.rival_rotation_deg);
+  take(from.rival_displacement, into.rival_displacement);
+  take(from.chance_inliers, into.chance_inliers);
+  take(from.chance_significance, into.chance_significance);
+  take(from.aligned_overlap, into.aligned_overlap);
+  take(from.seen_on_surface, into.seen_on_surface);
+  take(from.surface_agreement, into.surface_agreement);
+  take(from.free_space_violation, into.free_space_violation);
+}
+
+}  // namespace
+
+void hearWitness(const PoseWitness& witness, MacResult& result) {
+  takeMeasured(witness.judge(result.T_target_source), result.verification);
+  for (std::string& warning : witness.warnings()) result.warnings.push_back(std::move(warning));
+}
+
 void verifyRegistration(const CorrespondenceSet& c, const std::vector<ScoredHypothesis>& hypotheses,
                         const HypothesisEvaluator& evaluator, const MacParams& params, const StopFlag* stop,
-                        MacResult& result) {
+                        const PoseWitness* witness, MacResult& result) {
   if (!params.verification.enabled || !result.success) return;
   const auto start = std::chrono::steady_clock::now();
   measureCorrespondenceSignals(c, hypotheses, evaluator, params, stop, result);
+  // A witness reads no stop flag: it is not heard once a stop came, and a stop during it still wins.
+  if (witness != nullptr && !stopRequested(stop)) hearWitness(*witness, result);
   if (stopRequested(stop)) {
     result.success = false;
     result.status = RegistrationStatus::kCancelled;
     result.message = "cancelled at the verification";
     return;
   }
+  // One decision, on the evidence of the correspondences and of the witness together.
   decideVerification(params.verification, result);
   result.times.verification_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

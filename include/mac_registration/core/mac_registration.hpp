@@ -3,6 +3,7 @@
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/pose_witness.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
@@ -12,8 +13,10 @@ namespace mac_registration {
 // all correspondences, refinement. Never throws for bad input or parameters and never prints: every
 // outcome is in the result (success, status, message, warnings, counters, time per stage). The same input
 // and parameters give the same result whatever num_threads is. A raised `stop` ends the registration early
-// with status kCancelled.
+// with status kCancelled. A `witness` (e.g. the clouds the correspondences came from) adds its evidence to
+// the verification of the transform found, before the one decision on it; its time counts in
+// times.verification_ms.
 MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params,
-                                  const StopFlag* stop = nullptr);
+                                  const StopFlag* stop = nullptr, const PoseWitness* witness = nullptr);
 
 }  // namespace mac_registration

@@ -40,7 +40,7 @@ struct StageTimes {               // wall-clock milliseconds
   double hypotheses_ms = 0.0;  // SVD per selected clique
   double evaluation_ms = 0.0;  // scoring every hypothesis on all correspondences
   double refinement_ms = 0.0;
-  double verification_ms = 0.0;  // signals, alternatives and confidence (with clouds: the front end's too)
+  double verification_ms = 0.0;  // signals, alternatives and confidence (with a witness: its judging too)
   double total_ms = 0.0;
 };
 

@@ -6,7 +6,8 @@
 // 3DMatch FPFH sets without a single true correspondence). What separates right from wrong is whether the
 // pose stands alone: a right pose collects the consensus of the correspondences and no pose far from it
 // explains much of the rest; a wrong pose is one of several chance alignments of nearly equal score. With
-// clouds, the aligned clouds themselves are a second, independent witness (features/cloud_verification).
+// clouds, the aligned clouds themselves are a second, independent witness (core/pose_witness.hpp,
+// features/cloud_verification), heard before the one decision.
 //
 // The signals combine into a confidence = 1 / (1 + exp(-L)), L a sum of evidence terms (log-odds), one per
 // signal (verificationEvidence); BENCHMARKS.md has the labelled evaluation they were set on and the error
@@ -20,6 +21,7 @@
 #include "mac_registration/core/evaluation.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/pose_witness.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {
@@ -77,14 +79,20 @@ std::vector<EvidenceTerm> verificationEvidence(const VerificationSignals& signal
 double confidenceOf(const std::vector<EvidenceTerm>& terms);
 
 // Sets result.confidence from its signals and decides: a result that has a transform (success, or
-// kUnverified from an earlier decision) becomes kSuccess at or above params.min_confidence, else
-// kUnverified, keeping its transform, with the reasons in its message. Other failures are left alone.
+// kUnverified) becomes kSuccess at or above params.min_confidence, else kUnverified, keeping its
+// transform, with the reasons in its message. Other failures are left alone.
 void decideVerification(const VerificationParams& params, MacResult& result);
 
-// The verification stage of the core: measureCorrespondenceSignals() then decideVerification(), timed in
-// result.times.verification_ms. Nothing when verification is off or the result has no transform.
+// The signals `witness` measured (its non-NaN fields) into result.verification, and its warnings into
+// result.warnings.
+void hearWitness(const PoseWitness& witness, MacResult& result);
+
+// The verification stage of the core: measureCorrespondenceSignals(), the witness if any, then the one
+// decideVerification() on all the evidence, timed in result.times.verification_ms. Nothing when
+// verification is off or the result has no transform.
 void verifyRegistration(const CorrespondenceSet& correspondences,
                         const std::vector<ScoredHypothesis>& hypotheses, const HypothesisEvaluator& evaluator,
-                        const MacParams& params, const StopFlag* stop, MacResult& result);
+                        const MacParams& params, const StopFlag* stop, const PoseWitness* witness,
+                        MacResult& result);
 
 }  // namespace mac_registration
