@@ -337,14 +337,9 @@ CloudRegistrationResult registerWith(FrontEnd front_end, const FeatureParams& fe
   }
   if (stopRequested(stop)) return fail(RegistrationStatus::kCancelled, "cancelled after the front end");
   const MacParams params = inCloudUnits(mac_params, feature_params, result.features.stats);
-  registration = registerCorrespondences(result.features.correspondences, params, stop);
-  if (stopRequested(stop) && registration.status != RegistrationStatus::kCancelled) {
-    // Done but for the verification against the clouds, which reads no flag: a stop wins over it, and the
-    // unverified transform goes.
-    registration.T_target_source = Eigen::Isometry3d::Identity();
-    return fail(RegistrationStatus::kCancelled, "cancelled before the verification against the clouds");
-  }
-  verifyAlignment(result.features, params, registration);
+  // The clouds are the core's witness: their evidence joins the correspondences' before its one decision.
+  const AlignmentJudge clouds(result.features, params.evaluation.inlier_threshold, params.num_threads);
+  registration = registerCorrespondences(result.features.correspondences, params, stop, &clouds);
   return result;
 }
 

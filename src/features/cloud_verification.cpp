@@ -3,7 +3,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <iomanip>
@@ -13,7 +12,6 @@
 #include <utility>
 #include <vector>
 
-#include "mac_registration/core/verification.hpp"
 #include "surface_grid.hpp"
 
 namespace mac_registration {
@@ -179,17 +177,33 @@ struct AlignmentJudge::View {
 };
 
 AlignmentJudge::AlignmentJudge(const FeatureCorrespondences& f, double tau, int num_threads)
-    : tau_(tau), threads_(num_threads > 0 ? num_threads : omp_get_max_threads()) {
-  if (!f.source_keypoints || !f.target_keypoints || f.source_keypoints->size() < 3 ||
-      f.target_keypoints->size() < 3)
-    return;
-  source_ = std::make_unique<View>(f.source_keypoints, f.source_keypoint_normals, f.source_viewpoint, tau);
-  target_ = std::make_unique<View>(f.target_keypoints, f.target_keypoint_normals, f.target_viewpoint, tau);
-  for (const auto& [view, role] : {std::pair<View*, const char*>{source_.get(), "source"},
-                                   std::pair<View*, const char*>{target_.get(), "target"}}) {
-    view->viewpoint_used = !(double(view->min_range) > kFarthestViewpoint * diagonalOf(*view->points));
-    if (!view->viewpoint_used) viewpoint_warnings_.push_back(viewpointNotUsed(role, *view));
-  }
+    : source_keypoints_(f.source_keypoints),
+      target_keypoints_(f.target_keypoints),
+      source_normals_(f.source_keypoint_normals),
+      target_normals_(f.target_keypoint_normals),
+      source_viewpoint_(f.source_viewpoint),
+      target_viewpoint_(f.target_viewpoint),
+      tau_(tau),
+      threads_(num_threads > 0 ? num_threads : omp_get_max_threads()) {}
+
+void AlignmentJudge::buildViews() const {
+  std::call_once(built_, [this] {
+    if (!source_keypoints_ || !target_keypoints_ || source_keypoints_->size() < 3 ||
+        target_keypoints_->size() < 3)
+      return;
+    source_ = std::make_unique<View>(source_keypoints_, source_normals_, source_viewpoint_, tau_);
+    target_ = std::make_unique<View>(target_keypoints_, target_normals_, target_viewpoint_, tau_);
+    for (const auto& [view, role] : {std::pair<View*, const char*>{source_.get(), "source"},
+                                     std::pair<View*, const char*>{target_.get(), "target"}}) {
+      view->viewpoint_used = !(double(view->min_range) > kFarthestViewpoint * diagonalOf(*view->points));
+      if (!view->viewpoint_used) viewpoint_warnings_.push_back(viewpointNotUsed(role, *view));
+    }
+  });
+}
+
+std::vector<std::string> AlignmentJudge::warnings() const {
+  buildViews();
+  return viewpoint_warnings_;
 }
 
 AlignmentJudge::~AlignmentJudge() = default;
@@ -205,6 +219,7 @@ std::string AlignmentJudge::viewpointNotUsed(const char* role, const View& view)
 }
 
 VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
+  buildViews();
   VerificationSignals signals;
   if (!source_ || !target_) return signals;
   const Eigen::Isometry3f forward = T.cast<float>();
@@ -243,24 +258,6 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
                  source_->viewpoint_used ? share(seen_by_source.in_free_space, seen_by_source.points) : 0.0);
   }
   return signals;
-}
-
-void verifyAlignment(const FeatureCorrespondences& features, const MacParams& params, MacResult& result) {
-  if (!params.verification.enabled) return;
-  if (!result.success && result.status != RegistrationStatus::kUnverified) return;
-  const auto start = std::chrono::steady_clock::now();
-  const AlignmentJudge judge(features, params.evaluation.inlier_threshold, params.num_threads);
-  const VerificationSignals clouds = judge.judge(result.T_target_source);
-  for (const std::string& warning : judge.viewpointWarnings()) result.warnings.push_back(warning);
-  result.verification.aligned_overlap = clouds.aligned_overlap;
-  result.verification.seen_on_surface = clouds.seen_on_surface;
-  result.verification.free_space_violation = clouds.free_space_violation;
-  result.verification.surface_agreement = clouds.surface_agreement;
-  decideVerification(params.verification, result);
-  const double elapsed =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  result.times.verification_ms += elapsed;
-  result.times.total_ms += elapsed;
 }
 
 }  // namespace mac_registration

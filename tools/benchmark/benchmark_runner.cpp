@@ -102,9 +102,8 @@ bool benchmarkHasFeatures() {
 }
 
 MacResult PreparedPair::registerSet(const CorrespondenceSet& set) const {
-  MacResult result = registerCorrespondences(set, mac);
-  if (verify_with_clouds) verify_with_clouds(result);
-  return result;
+  const std::unique_ptr<PoseWitness> witness = cloud_witness ? cloud_witness() : nullptr;
+  return registerCorrespondences(set, mac, nullptr, witness.get());
 }
 
 PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& settings) {
@@ -127,8 +126,8 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
   // The same parameters registerClouds() would use.
   prepared.mac = inCloudUnits(settings.mac, settings.features, s);
   if (settings.cloud_verification) {
-    prepared.verify_with_clouds = [features, mac = prepared.mac](MacResult& result) {
-      verifyAlignment(*features, mac, result);
+    prepared.cloud_witness = [features, mac = prepared.mac]() -> std::unique_ptr<PoseWitness> {
+      return std::make_unique<AlignmentJudge>(*features, mac.evaluation.inlier_threshold, mac.num_threads);
     };
   }
   return prepared;

@@ -1,12 +1,14 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 
 #include "benchmark_datasets.hpp"
 #include "benchmark_table.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
+#include "mac_registration/core/pose_witness.hpp"
 #include "mac_registration/features/feature_params.hpp"
 #include "open3d_peer.hpp"
 
@@ -23,8 +25,8 @@ struct BenchmarkSettings {
   // voxel size is features.voxel_size, its other parameters the tutorial's in units of it.
   bool open3d = false;
   Open3dSettings open3d_settings;
-  // The clouds' stage of the verification after the core (as registerClouds); false judges the
-  // correspondences alone, as a caller of registerCorrespondences gets them.
+  // The clouds as the verification's witness (as registerClouds); false judges the correspondences alone,
+  // as a caller of registerCorrespondences without a witness gets them.
   bool cloud_verification = true;
 };
 
@@ -32,17 +34,18 @@ struct BenchmarkSettings {
 bool benchmarkHasFeatures();
 
 // A benchmark pair made ready to register: its correspondences (from the front end, or the file), the
-// parameters registerClouds() would use, and with clouds the front end's stage of the verification.
+// parameters registerClouds() would use, and with clouds their witness for the verification.
 struct PreparedPair {
   CorrespondenceSet correspondences;
   MacParams mac;
   FrontEndTimes front_end;
   std::size_t source_points = 0, target_points = 0;  // as read
-  // The cloud stage of the verification on a result (empty for correspondence sets). It reads the
-  // keypoints only, so it also judges results on other correspondence sets between the same clouds.
-  std::function<void(MacResult&)> verify_with_clouds;
+  // A new witness of the clouds for one registration (empty for correspondence sets), as registerClouds()
+  // builds one. It reads the keypoints only, so it also judges results on other correspondence sets
+  // between the same clouds.
+  std::function<std::unique_ptr<PoseWitness>()> cloud_witness;
 
-  // The core on `set`, then the cloud stage: what registerClouds() does with these clouds.
+  // The core on `set`, with the clouds as its witness: what registerClouds() does with these clouds.
   MacResult registerSet(const CorrespondenceSet& set) const;
 };
 
