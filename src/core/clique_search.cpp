@@ -1,4 +1,4 @@
-#include "mac_registration/core/clique_search.hpp"
+#include "clique_search.hpp"
 
 #include <igraph.h>
 
@@ -8,8 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "graph_bounds.hpp"
 #include "igraph_session.hpp"
-#include "mac_registration/core/graph_bounds.hpp"
 #include "search_graph.hpp"
 #include "thread_cpu_clock.hpp"
 

@@ -1,4 +1,4 @@
-#include "mac_registration/core/clique_selection.hpp"
+#include "clique_selection.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>

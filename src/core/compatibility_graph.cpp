@@ -1,4 +1,4 @@
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 
 #include <omp.h>
 

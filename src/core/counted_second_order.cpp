@@ -5,8 +5,8 @@
 #include <initializer_list>
 #include <vector>
 
-#include "mac_registration/core/compatibility_graph.hpp"
-#include "mac_registration/core/cpu_kernels.hpp"
+#include "compatibility_graph.hpp"
+#include "cpu_kernels.hpp"
 
 #if MAC_REGISTRATION_X86
 #include <immintrin.h>

@@ -1,4 +1,4 @@
-#include "mac_registration/core/cpu_kernels.hpp"
+#include "cpu_kernels.hpp"
 
 #include <cstdlib>
 #include <cstring>

@@ -1,9 +1,9 @@
-#include "mac_registration/core/evaluation.hpp"
+#include "evaluation.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "mac_registration/core/cpu_kernels.hpp"
+#include "cpu_kernels.hpp"
 
 namespace mac_registration {
 

@@ -8,10 +8,10 @@
 #include <limits>
 #include <memory>
 
+#include "compatibility_graph.hpp"
+#include "cpu_kernels.hpp"
 #include "graph_assembly.hpp"
-#include "mac_registration/core/compatibility_graph.hpp"
-#include "mac_registration/core/cpu_kernels.hpp"
-#include "mac_registration/core/graph_bounds.hpp"
+#include "graph_bounds.hpp"
 
 #if MAC_REGISTRATION_X86
 #include <immintrin.h>

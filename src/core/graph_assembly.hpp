@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 
 namespace mac_registration {
 

@@ -1,4 +1,4 @@
-#include "mac_registration/core/graph_bounds.hpp"
+#include "graph_bounds.hpp"
 
 #include <algorithm>
 #include <vector>

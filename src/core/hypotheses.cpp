@@ -1,4 +1,4 @@
-#include "mac_registration/core/hypotheses.hpp"
+#include "hypotheses.hpp"
 
 #include <Eigen/SVD>
 #include <cmath>

@@ -2,7 +2,7 @@
 
 #include <igraph.h>
 
-#include "mac_registration/core/clique_search.hpp"
+#include "clique_search.hpp"
 
 namespace mac_registration {
 namespace {

@@ -8,14 +8,14 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "mac_registration/core/clique_search.hpp"
-#include "mac_registration/core/clique_selection.hpp"
-#include "mac_registration/core/compatibility_graph.hpp"
-#include "mac_registration/core/evaluation.hpp"
-#include "mac_registration/core/graph_bounds.hpp"
-#include "mac_registration/core/hypotheses.hpp"
-#include "mac_registration/core/refinement.hpp"
-#include "mac_registration/core/verification.hpp"
+#include "clique_search.hpp"
+#include "clique_selection.hpp"
+#include "compatibility_graph.hpp"
+#include "evaluation.hpp"
+#include "graph_bounds.hpp"
+#include "hypotheses.hpp"
+#include "refinement.hpp"
+#include "verification.hpp"
 
 namespace mac_registration {
 namespace {

@@ -1,6 +1,6 @@
-#include "mac_registration/core/refinement.hpp"
+#include "refinement.hpp"
 
-#include "mac_registration/core/hypotheses.hpp"
+#include "hypotheses.hpp"
 
 namespace mac_registration {
 

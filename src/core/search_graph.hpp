@@ -6,7 +6,7 @@
 
 #include <vector>
 
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 #include "mac_registration/core/parameters.hpp"
 
 namespace mac_registration {

@@ -1,4 +1,4 @@
-#include "mac_registration/core/verification.hpp"
+#include "verification.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -13,7 +13,7 @@
 #include <omp.h>
 
 #include "mac_registration/core/pose_error.hpp"
-#include "mac_registration/core/refinement.hpp"
+#include "refinement.hpp"
 
 namespace mac_registration {
 namespace {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "surface_grid.hpp"
+#include "verification.hpp"
 
 namespace mac_registration {
 namespace {

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "mac_registration/core/cpu_kernels.hpp"
+#include "cpu_kernels.hpp"
 
 #if MAC_REGISTRATION_X86
 #include <immintrin.h>

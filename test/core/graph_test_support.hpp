@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 
 namespace mac_registration::test {
 

@@ -17,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-#include "mac_registration/core/clique_search.hpp"
+#include "clique_search.hpp"
 
 namespace mac_registration {
 namespace {

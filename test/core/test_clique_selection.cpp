@@ -7,8 +7,8 @@
 #include <set>
 #include <vector>
 
-#include "mac_registration/core/clique_search.hpp"
-#include "mac_registration/core/clique_selection.hpp"
+#include "clique_search.hpp"
+#include "clique_selection.hpp"
 
 namespace mac_registration {
 namespace {

@@ -4,7 +4,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
-#include "mac_registration/core/evaluation.hpp"
+#include "evaluation.hpp"
 
 namespace mac_registration {
 namespace {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "compatibility_graph.hpp"
+#include "graph_bounds.hpp"
 #include "graph_test_support.hpp"
-#include "mac_registration/core/compatibility_graph.hpp"
-#include "mac_registration/core/graph_bounds.hpp"
 
 namespace mac_registration {
 namespace {

@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "mac_registration/core/hypotheses.hpp"
+#include "hypotheses.hpp"
 
 namespace mac_registration {
 namespace {

@@ -5,8 +5,8 @@
 #include <random>
 #include <vector>
 
-#include "mac_registration/core/hypotheses.hpp"
-#include "mac_registration/core/refinement.hpp"
+#include "hypotheses.hpp"
+#include "refinement.hpp"
 
 namespace mac_registration {
 namespace {

@@ -2,7 +2,7 @@
 // dominant and a weak one, pure outliers; the evidence terms and the decision on hand-made signals; the
 // chance level of a consensus on the shipped 3DMatch set, as is and with its targets shuffled; a witness's
 // evidence heard before the one decision.
-#include "mac_registration/core/verification.hpp"
+#include "verification.hpp"
 
 #include <gtest/gtest.h>
 

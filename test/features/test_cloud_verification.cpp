@@ -11,8 +11,8 @@
 #include "mac_registration/config/preset_file.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
-#include "mac_registration/core/verification.hpp"
 #include "mac_registration/features/cloud_io.hpp"
+#include "verification.hpp"
 
 namespace mac_registration {
 namespace {

@@ -75,7 +75,7 @@ struct PoseAlternative {
 
 constexpr double kNotMeasured = std::numeric_limits<double>::quiet_NaN();
 
-// The evidence the verification decided from (core/verification.hpp); NaN where a signal was not measured
+// The evidence the verification decided from (src/core/verification.hpp); NaN where a signal was not measured
 // (no clouds given, verification off, or no transform to verify).
 struct VerificationSignals {
   // From the correspondences. The best rival: the hypothesis at a clearly different pose (more than

@@ -119,7 +119,7 @@ struct RefinementParams {
 };
 
 // Stage 8: verification, after refinement: is the transform right? Decides success from evidence that
-// separates right from wrong poses (see core/verification.hpp), not from the inlier count alone.
+// separates right from wrong poses (see src/core/verification.hpp), not from the inlier count alone.
 struct VerificationParams {
   // Off: success as before (min_inliers alone), no confidence, no alternatives.
   bool enabled = true;

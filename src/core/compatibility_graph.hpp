@@ -9,7 +9,7 @@
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
-#include "mac_registration/core/uninitialised_vector.hpp"
+#include "uninitialised_vector.hpp"
 
 namespace mac_registration {
 

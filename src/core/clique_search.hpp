@@ -4,7 +4,7 @@
 #include <functional>
 #include <string>
 
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 

@@ -2,8 +2,8 @@
 
 #include <Eigen/Geometry>
 
+#include "evaluation.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
-#include "mac_registration/core/evaluation.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 

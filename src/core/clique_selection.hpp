@@ -8,7 +8,7 @@
 #include <thread>
 #include <vector>
 
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 

@@ -9,7 +9,7 @@
 #include <functional>
 #include <vector>
 
-#include "mac_registration/core/compatibility_graph.hpp"
+#include "compatibility_graph.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 
 namespace mac_registration {

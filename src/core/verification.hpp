@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "evaluation.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
-#include "mac_registration/core/evaluation.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/pose_witness.hpp"
