@@ -27,13 +27,6 @@ struct CompatibilityGraph {
   float weight(int a, int b) const;
 };
 
-// Builds a graph from upper-triangle edge lists: rows[i] holds (j, w) with j > i, ascending in j.
-struct UpperEdge {
-  int to;
-  float weight;
-};
-CompatibilityGraph graphFromUpperRows(int num_nodes, const std::vector<std::vector<UpperEdge>>& rows);
-
 // A graph as the rows of its upper edges: row i holds node i's neighbours j > i, ascending, with their
 // weights; degree[i] counts all of i's neighbours (its row and the rows that name it). The rows point into
 // buffers owned elsewhere: the first-order pass's (FirstOrderRows), or a graph's lists (upperRowsOf). The
@@ -55,7 +48,8 @@ struct UpperRows {
 // The upper rows of a graph, pointing into its lists: valid while the graph lives, unchanged.
 UpperRows upperRowsOf(const CompatibilityGraph& graph);
 
-// The lists of the graph of `rows` (graphFromUpperRows of the same rows, bit for bit), on num_threads.
+// The lists of the graph of `rows`, on num_threads: bit for bit the lists the tests build edge by edge
+// (graphFromUpperRows).
 CompatibilityGraph graphOfRows(const UpperRows& rows, int num_threads = 1);
 
 // What the bounds of the first-order graph did. Nodes of the graph are all the correspondences; those a
@@ -72,7 +66,7 @@ struct FirstOrderBounds {
   bool reduced = false;
   std::size_t reduced_to = 0;
   // The second_order_budget of the builder acted: the graph holds only the edges among the
-  // second_order_kept_nodes correspondences boundSecondOrderWork would have kept.
+  // second_order_kept_nodes correspondences the budget keeps (nodesWithinSecondOrderBudget).
   bool second_order_bounded = false;
   std::size_t second_order_kept_nodes = 0;
   std::size_t second_order_removed_edges = 0;
@@ -86,26 +80,18 @@ struct FirstOrderRows : FirstOrderBounds {
   std::shared_ptr<const void> buffers;
 };
 
-// The first-order graph as lists.
-struct FirstOrderGraph : FirstOrderBounds {
-  CompatibilityGraph graph;
-};
-
 // First-order compatibility graph (FOG, paper Eq. 1-2): an edge where the score is >= t_cmp, weighted by
 // the score. Both scores are monotone in d, so each pair is tested against a precomputed bound on d^2.
 // O(min(N, max_correspondences)^2) pair tests, then O(sqrt(max_edges)^2) more if the edges overflow; memory
 // O(N + max_edges). The same graph whatever num_threads. A raised `stop` ends the pass within a row of pairs.
-// second_order_budget [multiply-adds], 0 = none: the graph boundSecondOrderWork(graph, budget) would make
-// of the first-order graph, bit for bit, chosen from the pass's rows before any list is built (a dense
-// consensus is millions of edges, most of which that bound would drop), with second_order_bounded set.
+// second_order_budget [multiply-adds] (graph.max_second_order_work), 0 = none: a graph whose second-order
+// pass would cost more keeps only the edges among its highest-degree nodes (inliers of a dense consensus
+// have the highest degree), 30 % fewer a round until it fits (nodesWithinSecondOrderBudget), chosen from
+// the pass's rows before any list is built (a dense consensus is millions of edges, most of which the
+// budget drops), with second_order_bounded set.
 FirstOrderRows firstOrderRows(const CorrespondenceSet& correspondences, const GraphParams& params,
                               int num_threads, const StopFlag* stop = nullptr,
                               double second_order_budget = 0.0);
-
-// firstOrderRows with its graph's lists built.
-FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads, const StopFlag* stop = nullptr,
-                                     double second_order_budget = 0.0);
 
 // Second-order weights (paper Eq. 4): w_ij = S_ij * sum_k S_ik S_jk over common neighbours k, on the
 // sparse lists. Edges in no triangle get weight 0 and are removed. A raised `stop` ends the pass within a
@@ -113,24 +99,20 @@ FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, c
 CompatibilityGraph buildSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
                                          const StopFlag* stop = nullptr);
 
+// A value for each upper edge, in the order of the rows laid end to end (UpperRows::rowStarts).
+using EdgeSums = UninitialisedVector<float>;
+
 // Eq. 4 estimated from counts, for dense graphs: sum_k S_ik S_jk is taken as c_ij m_i m_j, with c_ij the
 // number of common neighbours of i and j (a popcount of two neighbour bitsets) and m_i the mean weight of
 // i's edges. Every weight lies in [t_cmp, 1], so the estimate is within a factor t_cmp^2 of the exact sum
 // (2 % at t_cmp 0.99); the same edges as buildSecondOrderGraph (those in a triangle). O(N) words per
-// edge instead of O(degree) random loads, and O(N^2 / 8) bytes of bitsets; the same graph whatever
-// num_threads. A raised `stop` leaves it incomplete, as buildSecondOrderGraph.
-CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& first_order, int num_threads,
-                                                const StopFlag* stop = nullptr);
-
-// A value for each upper edge, in the order of the rows laid end to end (UpperRows::rowStarts).
-using EdgeSums = UninitialisedVector<float>;
-
-// The estimate of buildCountedSecondOrderGraph before its graph is built: sum_k S_ik S_jk of every edge
-// of the rows (0 for an edge in no triangle).
+// edge instead of O(degree) random loads, and O(N^2 / 8) bytes of bitsets; the same sums whatever
+// num_threads. This is that estimate for every edge of the rows (0 for an edge in no triangle), before any
+// graph is built; a raised `stop` leaves it incomplete, as buildSecondOrderGraph.
 EdgeSums countedCommonSums(const UpperRows& first_order, int num_threads, const StopFlag* stop = nullptr);
 
 // The graph of those sums (the edges with a positive sum, weighted S_ij * sum) with only its edges of
-// weight >= min_weight: buildCountedSecondOrderGraph's graph for 0, and withoutWeakEdges of it for
+// weight >= min_weight: the counted second-order graph for 0, and withoutWeakEdges of it for
 // another weight, bit for bit, without building it first. The same graph whatever num_threads.
 CompatibilityGraph triangleEdgesFromSums(const UpperRows& first_order, const EdgeSums& common,
                                          float min_weight, int num_threads = 1);

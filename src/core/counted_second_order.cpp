@@ -394,10 +394,4 @@ EdgeSums countedCommonSums(const UpperRows& fog, int num_threads, const StopFlag
   return common;
 }
 
-CompatibilityGraph buildCountedSecondOrderGraph(const CompatibilityGraph& fog, int num_threads,
-                                                const StopFlag* stop) {
-  const UpperRows rows = upperRowsOf(fog);
-  return triangleEdgesFromSums(rows, countedCommonSums(rows, num_threads, stop), 0.0f, num_threads);
-}
-
 }  // namespace mac_registration

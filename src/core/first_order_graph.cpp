@@ -405,9 +405,10 @@ void keepRowsOf(PairPass& pass, const std::vector<char>& keep) {
   }
 }
 
-// What boundSecondOrderWork would do to the graph of the pass, done to its rows before any list is built:
-// a dense consensus makes a first-order graph of millions of edges that the budget then cuts to a few
-// hundred nodes, and building those lists first cost more than the rest of the registration.
+// What the second-order budget would do to the graph of the pass (the tests' boundSecondOrderWork, on its
+// lists), done to its rows before any list is built: a dense consensus makes a first-order graph of millions
+// of edges that the budget then cuts to a few hundred nodes, and building those lists first cost more than
+// the rest of the registration.
 void boundPassSecondOrderWork(PairPass& pass, double budget, const StopFlag* stop, FirstOrderBounds& result) {
   if (budget <= 0.0 || !pass.within_max_edges ||
       secondOrderWorkOfDegrees(pass.degree, pass.row_count) <= budget)
@@ -493,15 +494,6 @@ FirstOrderRows firstOrderRows(const CorrespondenceSet& correspondences, const Gr
   result.cancelled = stopRequested(stop);
   result.rows = nodeRowsOf(*dense, kept_nodes, n, num_threads);
   result.buffers = std::move(dense);
-  return result;
-}
-
-FirstOrderGraph buildFirstOrderGraph(const CorrespondenceSet& correspondences, const GraphParams& params,
-                                     int num_threads, const StopFlag* stop, double second_order_budget) {
-  FirstOrderRows rows = firstOrderRows(correspondences, params, num_threads, stop, second_order_budget);
-  FirstOrderGraph result;
-  static_cast<FirstOrderBounds&>(result) = rows;
-  result.graph = graphOfRows(rows.rows, num_threads);
   return result;
 }
 

@@ -21,25 +21,6 @@ std::vector<char> nodesWithinSecondOrderBudget(
   return keep;
 }
 
-BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int num_threads,
-                                  const StopFlag* stop) {
-  BoundedGraph out;
-  if (secondOrderWork(graph) <= budget) {
-    out.graph = std::move(graph);
-    return out;
-  }
-  std::vector<double> degree(graph.num_nodes);
-  for (int i = 0; i < graph.num_nodes; ++i) degree[i] = graph.degree(i);
-  const std::vector<char> keep = nodesWithinSecondOrderBudget(
-      degree, budget,
-      [&](const std::vector<char>& kept) { return secondOrderWorkOfNodes(graph, kept, budget, num_threads); },
-      stop, out.kept_nodes);
-  out.graph = keepNodes(graph, keep, num_threads);
-  out.reduced = true;
-  out.removed_edges = graph.numEdges() - out.graph.numEdges();
-  return out;
-}
-
 namespace {
 
 // Whether a graph of `edges` on `nodes` has a mean degree above mean_degree (never for 0).

@@ -1,9 +1,10 @@
 #pragma once
 
-// The bounds that keep a dense compatibility graph affordable, in one place: the cost of the second-order
-// weights, the pruning of dense graphs' weak edges, and the thinning of cores too dense to search for
-// cliques. (The first-order pass bounds itself while it runs: graph.max_correspondences and
-// graph.max_edges in buildFirstOrderGraph.) Each returns what it did, for the result's warnings.
+// The bounds that keep a dense compatibility graph affordable, in one place: the rule of the second-order
+// budget (which the first-order pass applies to its rows), the pruning of dense graphs' weak edges, and
+// the thinning of cores too dense to search for cliques. (The first-order pass bounds itself while it
+// runs: graph.max_correspondences and graph.max_edges in firstOrderRows.) Each returns what it did, for
+// the result's warnings.
 
 #include <cstddef>
 #include <functional>
@@ -21,16 +22,12 @@ struct BoundedGraph {
   std::size_t removed_edges = 0;
 };
 
-// graph.max_second_order_work [multiply-adds]: a graph whose second-order pass would cost more keeps only
-// its highest-degree nodes (inliers of a dense consensus have the highest degree), shrinking by 30 % a
-// round until it fits.
-BoundedGraph boundSecondOrderWork(CompatibilityGraph graph, double budget, int num_threads = 1,
-                                  const StopFlag* stop = nullptr);
-
-// The nodes boundSecondOrderWork keeps, for a graph it would reduce: by `degree`, 30 % fewer a round,
-// until `work_of_kept` (the second-order work of the graph among the kept nodes, or more once past the
-// budget) is within the budget, 3 nodes are left, or `stop` is raised. `kept_nodes` receives how many.
-// Shared with the first-order builder, which applies it to its rows before building any list.
+// graph.max_second_order_work [multiply-adds]: the nodes kept of a graph whose second-order pass would cost
+// more: by `degree`, 30 % fewer a round, until `work_of_kept` (the second-order work of the graph among the
+// kept nodes, or more once past the budget) is within the budget, 3 nodes are left, or `stop` is raised.
+// `kept_nodes` receives how many.
+// The first-order pass applies it to its rows before building any list (firstOrderRows); the tests'
+// boundSecondOrderWork applies it to a built graph, the reference the pass is held to.
 std::vector<char> nodesWithinSecondOrderBudget(
     const std::vector<double>& degree, double budget,
     const std::function<double(const std::vector<char>&)>& work_of_kept, const StopFlag* stop,
@@ -45,11 +42,11 @@ struct SecondOrderOutcome {
 
 // The second-order weights, then pruneDenseGraph(graph, dense_mean_degree). A first-order graph with a
 // higher mean degree than dense_mean_degree (chance compatibilities among many outliers) gets the counted
-// weights of buildCountedSecondOrderGraph when they cost less than the exact sums and their bitsets fit:
-// the cut that follows on such graphs only needs the light chance edges told from the heavy consensus
-// ones, and is made before the graph of all the counted weights is built (the same graph, bit for bit,
-// as cutting it afterwards). Sparser graphs (real FPFH matches) keep the exact sums of
-// buildSecondOrderGraph. dense_mean_degree 0: exact sums, no cut.
+// weights (countedCommonSums) when they cost less than the exact sums and their bitsets fit: the cut that
+// follows on such graphs only needs the light chance edges told from the heavy consensus ones, and is made
+// before the graph of all the counted weights is built (the same graph, bit for bit, as cutting it
+// afterwards). Sparser graphs (real FPFH matches) keep the exact sums of buildSecondOrderGraph.
+// dense_mean_degree 0: exact sums, no cut.
 SecondOrderOutcome prunedSecondOrderGraph(const UpperRows& first_order, double dense_mean_degree,
                                           int num_threads, const StopFlag* stop = nullptr);
 

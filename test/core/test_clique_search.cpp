@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "clique_search.hpp"
+#include "graph_builders.hpp"
 
 namespace mac_registration {
 namespace {

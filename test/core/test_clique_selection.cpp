@@ -9,6 +9,7 @@
 
 #include "clique_search.hpp"
 #include "clique_selection.hpp"
+#include "graph_builders.hpp"
 
 namespace mac_registration {
 namespace {

@@ -10,6 +10,7 @@
 
 #include "compatibility_graph.hpp"
 #include "graph_bounds.hpp"
+#include "graph_builders.hpp"
 #include "graph_test_support.hpp"
 
 namespace mac_registration {

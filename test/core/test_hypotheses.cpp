@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "graph_builders.hpp"
 #include "hypotheses.hpp"
 
 namespace mac_registration {

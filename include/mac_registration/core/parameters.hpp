@@ -43,8 +43,8 @@ struct GraphParams {
   // and light second-order weights, while a consensus set's edges are heavy. (The MAC authors' code prunes
   // dense graphs too, by clustering coefficient.) The same bound picks the second-order weights: a
   // first-order graph above it gets them estimated from common-neighbour counts, within a factor t_cmp^2
-  // of Eq. 4's sums (buildCountedSecondOrderGraph), a sparser one the exact sums. 20 keeps every result of
-  // the benchmark sets that 50 gave and cuts the chance cliques of real FPFH matches (whose second-order
+  // of Eq. 4's sums (the counted second-order weights), a sparser one the exact sums. 20 keeps every result
+  // of the benchmark sets that 50 gave and cuts the chance cliques of real FPFH matches (whose second-order
   // graphs have mean degrees of 20-50); see doc/decisions/dense-mean-degree.md.
   double dense_mean_degree = 20.0;
 };
