@@ -1,4 +1,5 @@
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "mac_registration/features/cloud_filtering.hpp"
@@ -18,6 +19,18 @@ PointCloud::Ptr finitePoints(const PointCloud& cloud, std::size_t& dropped) {
   finite->is_dense = true;
   dropped = cloud.size() - finite->size();
   return finite;
+}
+
+double finiteDiagonal(const PointCloud& cloud, std::size_t& finite) {
+  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max()), high = -low;
+  finite = 0;
+  for (const auto& p : cloud) {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) continue;
+    low = low.min(p.getArray3fMap());
+    high = high.max(p.getArray3fMap());
+    ++finite;
+  }
+  return finite > 0 ? double((high - low).matrix().norm()) : 0.0;
 }
 
 std::string coordinateBoundProblem(const pcl::PointXYZ& point, std::size_t index) {

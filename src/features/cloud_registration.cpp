@@ -82,14 +82,17 @@ std::shared_ptr<const DescriptorIndex> indexOf(const DescribedCloud& cloud) {
   return std::make_shared<const DescriptorIndex>(cloud.descriptors);
 }
 
-// The number of voxels of leaf `voxel` that hold a point of `finite`.
-std::size_t occupiedVoxels(const PointCloud& finite, double voxel) {
+// The number of voxels of leaf `voxel` that hold a finite point of `cloud`.
+std::size_t occupiedVoxels(const PointCloud& cloud, double voxel) {
   std::vector<std::uint64_t> keys;
-  keys.reserve(finite.size());
+  keys.reserve(cloud.size());
   const auto cell = [voxel](float v) {
     return std::uint64_t(std::int64_t(std::floor(v / voxel)) & 0x1fffff);
   };
-  for (const auto& p : finite) keys.push_back(cell(p.x) << 42 | cell(p.y) << 21 | cell(p.z));
+  for (const auto& p : cloud) {
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      keys.push_back(cell(p.x) << 42 | cell(p.y) << 21 | cell(p.z));
+  }
   std::sort(keys.begin(), keys.end());
   return std::size_t(std::unique(keys.begin(), keys.end()) - keys.begin());
 }
@@ -103,24 +106,17 @@ FeatureParams withVoxel(FeatureParams params, double voxel) {
 }  // namespace
 
 double autoVoxelSize(const PointCloud& cloud, const StopFlag* stop) {
-  std::size_t dropped = 0;
-  const PointCloud::Ptr finite = finitePoints(cloud, dropped);
-  if (finite->size() < 3) return 0.0;
-  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max()), high = -low;
-  for (const auto& p : *finite) {
-    low = low.min(p.getArray3fMap());
-    high = high.max(p.getArray3fMap());
-  }
-  const double diagonal = (high - low).matrix().norm();
-  if (!(diagonal > 0.0)) return 0.0;
-  const double wanted = double(std::min(kAutoVoxelKeypoints, std::max<std::size_t>(1, finite->size() / 2)));
+  std::size_t finite = 0;  // counted in place: a copy of the finite points would double a map's memory
+  const double diagonal = finiteDiagonal(cloud, finite);
+  if (finite < 3 || !(diagonal > 0.0)) return 0.0;
+  const double wanted = double(std::min(kAutoVoxelKeypoints, std::max<std::size_t>(1, finite / 2)));
   // A surface holds voxels in proportion to 1 / leaf^2, so each step scales the leaf by the square root of
   // the miss; three steps from a hundredth of the diagonal land within a few per cent on scans, objects
   // and rooms alike. The leaf never goes below a millionth of the diagonal (the 21-bit keys above).
   double voxel = diagonal / 100.0;
   for (int step = 0; step < 3; ++step) {
     throwIfStopped(stop, "choosing the voxel size");  // each count sorts a key per point
-    const double occupied = double(occupiedVoxels(*finite, voxel));
+    const double occupied = double(occupiedVoxels(cloud, voxel));
     voxel = std::max(diagonal * 1e-6, voxel * std::sqrt(occupied / wanted));
   }
   return voxel;

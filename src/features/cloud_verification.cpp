@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "mac_registration/features/cloud_filtering.hpp"
 #include "surface_grid.hpp"
 #include "verification.hpp"
 
@@ -88,16 +89,6 @@ const float kAlongCosine = float(std::cos(30.0 * M_PI / 180.0));
 // room, an object scanner's 0.3-1 m from a 10-30 cm object). From that far, any cloud looks like a depth
 // map, so nothing else about it tells (doc/decisions/viewpoint-premise.md).
 constexpr double kFarthestViewpoint = 10.0;
-
-// The diagonal of the cloud's bounding box [m].
-double diagonalOf(const PointCloud& cloud) {
-  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max()), high = -low;
-  for (const auto& p : cloud) {
-    low = low.min(p.getArray3fMap());
-    high = high.max(p.getArray3fMap());
-  }
-  return double((high - low).matrix().norm());
-}
 
 }  // namespace
 
@@ -196,7 +187,9 @@ void AlignmentJudge::buildViews() const {
     target_ = std::make_unique<View>(target_keypoints_, target_normals_, target_viewpoint_, tau_);
     for (const auto& [view, role] : {std::pair<View*, const char*>{source_.get(), "source"},
                                      std::pair<View*, const char*>{target_.get(), "target"}}) {
-      view->viewpoint_used = !(double(view->min_range) > kFarthestViewpoint * diagonalOf(*view->points));
+      std::size_t finite = 0;
+      view->viewpoint_used =
+          !(double(view->min_range) > kFarthestViewpoint * finiteDiagonal(*view->points, finite));
       if (!view->viewpoint_used) viewpoint_warnings_.push_back(viewpointNotUsed(role, *view));
     }
   });

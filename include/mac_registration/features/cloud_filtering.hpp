@@ -11,6 +11,10 @@ namespace mac_registration {
 // cloud's NaN pixels go too). `dropped` receives how many were removed.
 PointCloud::Ptr finitePoints(const PointCloud& cloud, std::size_t& dropped);
 
+// [m] The diagonal of the bounding box of the cloud's finite points; 0 for none. `finite` receives how
+// many there are.
+double finiteDiagonal(const PointCloud& cloud, std::size_t& finite);
+
 // [m] The largest |coordinate| a cloud may have where it enters the front end (loadCloud, describeCloud and
 // the ROS reader). 10^6 m holds any UTM easting and any map in a local frame up to a UTM zone's width, and
 // float32 still spaces coordinates 6.25 cm apart there, finer than an outdoor voxel; beyond it a cloud is
