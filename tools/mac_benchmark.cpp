@@ -625,6 +625,8 @@ int main(int argc, char** argv) {
     bool params_given = false;
     for (int i = 2; i < argc; ++i)
       params_given |= std::string(argv[i]) == "--config" || std::string(argv[i]) == "--set";
+    // Times depend on the kernels; the header says which ran.
+    if (mode != "compare") std::cout << "kernels: " << kernelsInUse() << "\n";
     if (mode == "synthetic") return runSynthetic(options, params_given);
     if (mode == "correspondences") return runCorrespondences(options);
     if (mode == "compare") return runCompare(options);

@@ -5,6 +5,8 @@
 #include <sstream>
 #include <string>
 
+#include "mac_registration/core/mac_registration.hpp"
+
 namespace mac_registration {
 namespace {
 
@@ -65,6 +67,7 @@ void printResultSummary(std::ostream& out, const MacResult& r) {
       << ", hypotheses " << t.hypotheses_ms << ", evaluation " << t.evaluation_ms << ", refinement "
       << t.refinement_ms << ", verification " << t.verification_ms << ", total " << t.total_ms << "\n";
   out.unsetf(std::ios::fixed);
+  out << "kernels: " << kernelsInUse() << "\n";
 }
 
 }  // namespace mac_registration

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "cpu_kernels.hpp"
+#include "kernels/kernel_sets.hpp"
 
 namespace mac_registration {
 

@@ -135,6 +135,7 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   }
   ROS_INFO_STREAM("mac_registration: effective configuration (" << private_nh_.getNamespace()
                                                                 << "): " << describeConfig(config_));
+  ROS_INFO_STREAM("mac_registration: SIMD kernels " << kernelsInUse());
 
   result_pub_ = private_nh_.advertise<mac_registration::RegistrationResult>("result", 10);
   aligned_pub_ = private_nh_.advertise<sensor_msgs::PointCloud2>("aligned", 1);
@@ -587,6 +588,7 @@ void RegistrationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatusW
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "last registration failed: " + last_result_.message);
   }
+  status.add("kernels", kernelsInUse());
   status.add("registrations", registrations_);
   status.add("failures", failures_);
   status.add("rejected by the verification", unverified_);

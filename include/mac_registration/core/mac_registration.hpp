@@ -1,5 +1,7 @@
 #pragma once
 
+#include <string>
+
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
@@ -18,5 +20,11 @@ namespace mac_registration {
 // times.verification_ms.
 MacResult registerCorrespondences(const CorrespondenceSet& correspondences, const MacParams& params,
                                   const StopFlag* stop = nullptr, const PoseWitness* witness = nullptr);
+
+// The SIMD kernels this process runs, for logs: the instruction set and each kernel's variant, e.g.
+// "avx512 (pair test avx2, common-neighbour count avx512, descriptor scan avx2)". The widest set the CPU
+// has, narrowed by the environment variable MAC_REGISTRATION_KERNELS ("avx2" or "portable"); every set
+// gives the same results.
+std::string kernelsInUse();
 
 }  // namespace mac_registration

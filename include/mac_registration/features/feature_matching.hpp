@@ -50,7 +50,7 @@ class DescriptorIndex {
   // The tree, built by the first caller.
   const Tree& tree() const;
 
-  static constexpr int kPackedLanes = 16;  // descriptors a tile: one AVX-512 register of floats
+  static constexpr int kPackedLanes = 16;  // descriptors a tile: two AVX2 registers of floats
   static constexpr int kDimensions = 33;   // FPFH histogram bins
   struct Packed {
     int count = 0;  // descriptors
@@ -90,7 +90,7 @@ struct NearestDescriptors {
 // Exact search by brute force over reference.packed(), on `threads` threads (> 0). Each squared distance
 // kept is the sum of the 33 squared bin differences in bin order, in float, without fused multiply-adds:
 // the sum FLANN's kd-tree computes (PCL's L2_Simple), so the distances equal the exact kd-tree's bit for
-// bit. (With AVX-512 the candidates are screened first by |q|^2 + |t|^2 - 2 q.t with a margin above its
+// bit. (With AVX2 the candidates are screened first by |q|^2 + |t|^2 - 2 q.t with a margin above its
 // rounding error; only the direct sum decides.) Without `reverse`, each group of queries of similar norm
 // scans the tiles outward from its norm and stops where | |q| - |t| |, a lower bound on |q - t|, exceeds
 // every query's second nearest distance with a margin above the rounding: the same two nearest as the
