@@ -5,11 +5,11 @@
 
 #include "benchmark_datasets.hpp"
 #include "benchmark_table.hpp"
+#include "mac_registration/config/feature_params.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/pose_witness.hpp"
-#include "mac_registration/features/feature_params.hpp"
 #include "open3d_peer.hpp"
 
 namespace mac_registration {

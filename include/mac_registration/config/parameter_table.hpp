@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "mac_registration/core/parameters.hpp"
-#include "mac_registration/features/feature_params.hpp"
+#include "mac_registration/config/feature_params.hpp"
 
 namespace mac_registration {
 

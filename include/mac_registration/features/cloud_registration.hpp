@@ -5,12 +5,12 @@
 #include <string>
 #include <vector>
 
+#include "mac_registration/config/feature_params.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/core/stop_flag.hpp"
 #include "mac_registration/features/feature_matching.hpp"
-#include "mac_registration/features/feature_params.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
 namespace mac_registration {

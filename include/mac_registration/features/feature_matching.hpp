@@ -7,8 +7,8 @@
 #include <mutex>
 #include <vector>
 
+#include "mac_registration/config/feature_params.hpp"
 #include "mac_registration/core/stop_flag.hpp"
-#include "mac_registration/features/feature_params.hpp"
 #include "mac_registration/features/point_cloud.hpp"
 
 namespace mac_registration {

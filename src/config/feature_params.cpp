@@ -1,7 +1,7 @@
+#include "mac_registration/config/feature_params.hpp"
+
 #include <cmath>
 #include <sstream>
-
-#include "mac_registration/features/feature_params.hpp"
 
 namespace mac_registration {
 namespace {
