@@ -239,9 +239,7 @@ void RegistrationServer::onReconfigure(MacRegistrationConfig& c, std::uint32_t) 
   }
   if (!problems.empty()) {
     ROS_ERROR_STREAM(
-        "mac_registration: reconfiguration refused, keeping the previous values (a request outside the "
-        "bounds of cfg/MacRegistration.cfg arrives clamped to them):"
-        << joined(problems));
+        "mac_registration: reconfiguration refused, keeping the previous values:" << joined(problems));
     toReconfigure(algorithmOf(current), c);  // what dynamic_reconfigure reports must be what is in force
     return;
   }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "mac_registration/config/preset_file.hpp"
@@ -40,14 +41,14 @@ TEST(ParameterTable, EveryValueRoundTripsThroughText) {
   }
 }
 
-// The defaults are usable, and each documented numeric bound is the validators' bound: just outside is
-// refused with a message naming the key, just inside is not refused for that key.
-TEST(ParameterTable, DocumentedBoundsAreTheValidatorsBounds) {
+// The defaults are usable, and each range is the validators' range: just outside a bound, or at an open
+// one, is refused with a message naming the key; at a closed bound, or just inside an open one, it is not.
+TEST(ParameterTable, RangesAreTheValidatorsRanges) {
   ASSERT_TRUE(validateConfig(RegistrationConfig{}).empty());
   for (const auto& p : parameterTable()) {
     if (p.type == ParameterType::kBool || p.type == ParameterType::kChoice) continue;
+    const ParameterRange& r = p.range;
     const bool whole = p.type != ParameterType::kReal;
-    const double step = whole ? 1.0 : 1e-6 * std::max(1.0, std::fabs(p.min));
     const auto problemsAt = [&](double value) {
       RegistrationConfig config;
       // Partners of cross-parameter rules at values that let this one reach its own bound.
@@ -57,23 +58,67 @@ TEST(ParameterTable, DocumentedBoundsAreTheValidatorsBounds) {
                    whole ? ParameterValue(static_cast<long long>(value)) : ParameterValue(value));
       return validateConfig(config);
     };
-    const std::string& name = p.key;
-    if (std::isfinite(p.min) && !(p.type == ParameterType::kCount && p.min == 0.0)) {
-      const double below = p.min - step;
-      if (!(p.zero_means_off && below == 0.0)) {
-        EXPECT_TRUE(mentions(problemsAt(below), name)) << p.key << " below";
+    const auto refused = [&](double value) { return mentions(problemsAt(value), p.key); };
+    const auto step = [&](double bound) { return whole ? 1.0 : 1e-6 * std::max(1.0, std::fabs(bound)); };
+    if (std::isfinite(r.min) && !(p.type == ParameterType::kCount && r.min == 0.0)) {
+      const double below = r.min - step(r.min);
+      if (!(below == 0.0 && r.zero != ParameterRange::Zero::kPlain)) {
+        EXPECT_TRUE(refused(below)) << p.key << " below";
       }
-      const double inside = whole ? p.min : p.min + step;
-      EXPECT_FALSE(mentions(problemsAt(inside), name)) << p.key << " at its minimum";
+      const bool zero_accepted = r.min == 0.0 && r.zero != ParameterRange::Zero::kPlain;
+      EXPECT_EQ(refused(r.min), r.min_open && !zero_accepted) << p.key << " at its minimum";
+      EXPECT_FALSE(refused(r.min + step(r.min))) << p.key << " inside its minimum";
     }
-    if (std::isfinite(p.max)) {
-      EXPECT_TRUE(mentions(problemsAt(p.max + step), name)) << p.key << " above";
-      EXPECT_FALSE(mentions(problemsAt(whole ? p.max : p.max - step), name)) << p.key << " at its maximum";
+    if (std::isfinite(r.max)) {
+      EXPECT_TRUE(refused(r.max + step(r.max))) << p.key << " above";
+      EXPECT_EQ(refused(r.max), r.max_open) << p.key << " at its maximum";
+      EXPECT_FALSE(refused(r.max - step(r.max))) << p.key << " inside its maximum";
     }
-    if (p.zero_means_off || p.zero_means_auto) {
-      EXPECT_FALSE(mentions(problemsAt(0.0), name)) << p.key << " = 0 (off or auto)";
+    if (r.zero != ParameterRange::Zero::kPlain) {
+      EXPECT_FALSE(mentions(problemsAt(0.0), p.key)) << p.key << " = 0 (off or auto)";
+    }
+    if (!whole) {
+      // Infinity only where it means something (a lifted bound).
+      EXPECT_EQ(refused(std::numeric_limits<double>::infinity()), !(std::isinf(r.max) && !r.max_open))
+          << p.key << " = inf";
+      EXPECT_TRUE(refused(std::numeric_limits<double>::quiet_NaN())) << p.key << " = NaN";
     }
   }
+}
+
+// The core checks its parameters without the table: both read one schema, so each core range and unit is
+// written once, and the table lists every one of them.
+TEST(ParameterTable, CoreParametersTakeTheCoresRanges) {
+  for (const auto& core : macParameterRanges()) {
+    const Parameter* p = findParameter(core.key);
+    ASSERT_NE(p, nullptr) << core.key;
+    EXPECT_EQ(p->unit, core.unit) << core.key;
+    EXPECT_EQ(p->range.text(), core.range.text()) << core.key;
+    EXPECT_EQ(core.value(RegistrationConfig{}.mac), std::stod(formatParameterValue(p->get({})))) << core.key;
+  }
+}
+
+// A refusal names the key, the value with its unit, the range and the hint.
+TEST(ParameterTable, RefusalsSayKeyValueRangeAndHint) {
+  RegistrationConfig config;
+  config.mac.graph.t_cmp = 1.5;
+  config.features.voxel_size = -0.05;
+  config.features.feature_radius_factor = 1.0;  // below features.normal_radius_factor 2
+  const auto problems = validateConfig(config);
+  ASSERT_EQ(problems.size(), 3u);
+  EXPECT_EQ(
+      problems[0],
+      "graph.t_cmp = 1.5 is out of range: must be in (0, 1); 0.99 is the paper's default, lower it for few "
+      "or very noisy correspondences.");
+  EXPECT_EQ(
+      problems[1],
+      "features.voxel_size = -0.05 [m] is out of range: must be > 0 (0 = auto, the leaf that leaves about "
+      "5000 keypoints in a cloud).");
+  EXPECT_EQ(problems[2],
+            "features.feature_radius_factor = 1 [x voxel_size] is out of range: must be > "
+            "features.normal_radius_factor (2).");
+  EXPECT_EQ(findParameter("cliques.max_clique_size")->range.text(), ">= 3 (0 = no cap)");
+  EXPECT_EQ(findParameter("selection.normal_consistency_threshold")->range.text(), "in (0, 1]");
 }
 
 TEST(ParameterTable, TypedValuesAreChecked) {

@@ -1,8 +1,11 @@
 // cfg/MacRegistration.cfg against the parameter table: every field names a table key, its default is the
-// table's, its bounds never cut off a value the table accepts, and values go both ways unchanged.
+// table's, it holds no range of its own (a value outside the table's is refused with the table's words),
+// and values go both ways unchanged.
 #include "mac_registration/ros/reconfigure_mapping.hpp"
 
 #include <gtest/gtest.h>
+
+#include <dynamic_reconfigure/Config.h>
 
 #include <cmath>
 #include <limits>
@@ -28,7 +31,14 @@ double fieldValue(const MacRegistrationConfig& fields, const std::string& field)
   return NAN;
 }
 
-TEST(ReconfigureMapping, EveryFieldIsATableKeyWithTheTablesDefaultAndRoomyBounds) {
+// The .cfg field of a table key.
+std::string fieldOf(const std::string& key) {
+  std::string field = key;
+  for (char& c : field) c = c == '.' ? '_' : c;
+  return field;
+}
+
+TEST(ReconfigureMapping, EveryFieldIsATableKeyWithTheTablesDefaultAndNoRangeOfItsOwn) {
   const RegistrationConfig defaults;
   ASSERT_FALSE(MacRegistrationConfig::__getParamDescriptions__().empty());
   for (const auto& description : MacRegistrationConfig::__getParamDescriptions__()) {
@@ -38,17 +48,40 @@ TEST(ReconfigureMapping, EveryFieldIsATableKeyWithTheTablesDefaultAndRoomyBounds
     EXPECT_EQ(fieldValue(MacRegistrationConfig::__getDefault__(), description->name),
               numberOf(p.get(defaults)))
         << key;
-    // At or outside the table's bounds: dynamic_reconfigure's clamping never turns a refused value into an
-    // accepted one, and never refuses one the table accepts.
+    // The .cfg's bounds are its types' own: the range is the table's alone, and dynamic_reconfigure never
+    // clamps a request into something else than what was asked for.
     const double min = fieldValue(MacRegistrationConfig::__getMin__(), description->name);
-    EXPECT_LE(min, p.min) << key;
-    // Where 0 means auto, a negative request clamped to 0 would be accepted as auto instead of refused.
-    if (p.zero_means_auto) {
-      EXPECT_LT(min, 0.0) << key;
-    }
     const double max = fieldValue(MacRegistrationConfig::__getMax__(), description->name);
-    const bool unbounded_int = description->type == "int" && max == std::numeric_limits<int>::max();
-    EXPECT_TRUE(max >= p.max || unbounded_int) << key << ": .cfg max " << max << ", table max " << p.max;
+    if (description->type == "int") {
+      EXPECT_EQ(min, std::numeric_limits<int>::min()) << key;
+      EXPECT_EQ(max, std::numeric_limits<int>::max()) << key;
+    } else {
+      EXPECT_EQ(min, -std::numeric_limits<double>::infinity()) << key;
+      EXPECT_EQ(max, std::numeric_limits<double>::infinity()) << key;
+    }
+  }
+}
+
+// A request outside a table range reaches the node as asked and is refused with the table's words.
+TEST(ReconfigureMapping, ARequestOutsideTheRangeIsRefusedWithTheTablesMessage) {
+  for (const auto& key : reconfigurableKeys()) {
+    const Parameter& p = *findParameter(key);
+    const double outside = std::isfinite(p.range.min) ? p.range.min - 1.0 : p.range.max + 1.0;
+    MacRegistrationConfig fields = MacRegistrationConfig::__getDefault__();
+    dynamic_reconfigure::Config message;
+    fields.__toMessage__(message);
+    for (auto& d : message.doubles) {
+      if (d.name == fieldOf(key)) d.value = outside;
+    }
+    for (auto& i : message.ints) {
+      if (i.name == fieldOf(key)) i.value = static_cast<int>(outside);
+    }
+    fields.__fromMessage__(message);
+    RegistrationConfig config;
+    fromReconfigure(fields, config);
+    const auto problems = validateConfig(config);
+    ASSERT_EQ(problems.size(), 1u) << key;
+    EXPECT_EQ(problems[0], rangeProblem(p, p.get(config))) << key;
   }
 }
 

@@ -53,6 +53,7 @@ constexpr double kQuadraticThresholdVoxels = 2.0;  // graph.quadratic_threshold
 constexpr double kInlierThresholdVoxels = 2.0;     // evaluation.inlier_threshold
 
 // Every problem with the parameters as a sentence naming parameter, value and allowed range; empty if usable.
+// The ranges are the parameter table's entries (config/parameter_table.hpp), then the rules between them.
 std::vector<std::string> validateFeatureParams(const FeatureParams& params);
 
 }  // namespace mac_registration

@@ -1,10 +1,55 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace mac_registration {
+
+// The values a numeric parameter accepts. Each parameter's range is written once: the core's below
+// (macParameterRanges), the front end's and the ROS node's in the parameter table
+// (config/parameter_table.hpp). The validators check against it, the table documents it, and every
+// refusal is worded from it.
+struct ParameterRange {
+  // What 0 means when it lies outside [min, max] and is still accepted.
+  enum class Zero {
+    kPlain,  // nothing special: 0 is accepted only inside [min, max]
+    kOff,    // the feature is off, or the bound lifted
+    kAuto,   // a value derived from the data; only a cloud registration can derive it
+  };
+
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+  // Whether the bound itself is refused. An infinite max is open (infinity refused) unless infinity means
+  // something (orInfinity).
+  bool min_open = false;
+  bool max_open = true;
+  Zero zero = Zero::kPlain;
+  std::string zero_meaning;      // what 0 stands for, in a few words ("no bound"); shown as "(0 = ...)"
+  std::string infinity_meaning;  // what inf stands for, where it is accepted
+  std::string hint;              // why the bound, or the usual values; ends a refusal
+
+  static ParameterRange atLeast(double min);  // [min, inf)
+  static ParameterRange above(double min);    // (min, inf)
+  static ParameterRange closed(double min, double max);
+  static ParameterRange open(double min, double max);
+  static ParameterRange openClosed(double min, double max);   // (min, max]
+  ParameterRange orOff(std::string meaning) const;            // 0 accepted too: off
+  ParameterRange orAuto(std::string meaning) const;           // 0 accepted too: derived from the data
+  ParameterRange withZeroMeaning(std::string meaning) const;  // 0 is inside and means something
+  ParameterRange orInfinity(std::string meaning) const;       // inf accepted too (above a finite min)
+  ParameterRange withHint(std::string hint) const;
+
+  // A value inside [min, max], or 0 where 0 means off or auto; never NaN.
+  bool contains(double value) const;
+  // The accepted values as a refusal says them: "in (0, 1)", ">= 1000 (0 = no bound)".
+  std::string text() const;
+};
+
+// The one wording of a refusal: "KEY = VALUE [UNIT] is out of range: must be RANGE; HINT."
+std::string outOfRangeMessage(const std::string& key, double value, const std::string& unit,
+                              const ParameterRange& range);
 
 // How the compatibility of two correspondences is scored from their rigidity residual
 // d = | |s_i - s_j| - |t_i - t_j| |.
@@ -147,8 +192,29 @@ struct MacParams {
   int num_threads = 0;
 };
 
+// A numeric parameter of MacParams: its key (as in the presets and the parameter table), unit and range.
+// The parameter table takes both from here, so that the core, which registers correspondences without
+// the table, checks the same ranges the table documents.
+struct MacParameterRange {
+  std::string key;
+  std::string unit;  // "m", "s", "nodes", ...; empty when the value has none
+  ParameterRange range;
+  double (*value)(const MacParams&);
+};
+
+// Every numeric parameter of MacParams, in the order of the presets' sections.
+const std::vector<MacParameterRange>& macParameterRanges();
+
+// The entry of `key`, or nullptr.
+const MacParameterRange* findMacParameterRange(const std::string& key);
+
+// Whether a 0 that means auto passes: the core alone cannot derive it (it sees correspondences only), a
+// cloud registration derives it from the voxel size before the core runs.
+enum class AutoValues { kRefused, kAccepted };
+
 // Every problem with the parameters, each as a sentence naming the parameter, its value and the allowed
-// range. Empty when the parameters are usable. The one place parameters are checked.
-std::vector<std::string> validateParams(const MacParams& params);
+// range: the ranges of macParameterRanges(), then the rules between parameters. Empty when the
+// parameters are usable.
+std::vector<std::string> validateParams(const MacParams& params, AutoValues autos = AutoValues::kRefused);
 
 }  // namespace mac_registration
