@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The README's parameter table must agree with the presets: every row's key exists in both presets and its
 indoor/outdoor defaults are the presets' values. The Luminar preset has the outdoor one's keys, and the
-README's sentence on it names every value where the two differ. Exits non-zero, naming each disagreement; with
+README's sentence on it names every value where the two differ. (The README's table of the node's own parameters
+is checked against the node's parameter table by test/ros/test_node_parameters.cpp.) Exits non-zero, naming each disagreement; with
 --xunit PATH it also writes the outcome as a JUnit report (what catkin_test_results reads)."""
 import argparse
 import os

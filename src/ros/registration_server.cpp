@@ -133,8 +133,8 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
     throw std::invalid_argument("invalid parameters in " + private_nh_.getNamespace() + ":" +
                                 joined(problems));
   }
-  ROS_INFO_STREAM("mac_registration: effective configuration (" << private_nh_.getNamespace()
-                                                                << "): " << describeConfig(config_));
+  ROS_INFO_STREAM("mac_registration: effective configuration (" << private_nh_.getNamespace() << "):\n"
+                                                                << describeConfig(config_));
   ROS_INFO_STREAM("mac_registration: SIMD kernels " << kernelsInUse());
 
   result_pub_ = private_nh_.advertise<mac_registration::RegistrationResult>("result", 10);

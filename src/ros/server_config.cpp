@@ -3,9 +3,9 @@
 #include <XmlRpcValue.h>
 
 #include <set>
-#include <sstream>
+#include <stdexcept>
 
-#include "mac_registration/config/parameter_table.hpp"
+#include "table_entries.hpp"
 
 namespace mac_registration {
 namespace {
@@ -61,56 +61,81 @@ void loadAlgorithmParams(const ros::NodeHandle& nh, RegistrationConfig& config,
   }
 }
 
-std::string number(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
+using Node = NodeParams;
+using Range = ParameterRange;
+
+const table_entries::Names<Node::TargetMode> kTargetModes{
+    {{"latest", Node::TargetMode::kLatest}, {"synchronized", Node::TargetMode::kSynchronized}}};
+const table_entries::Names<Node::TfMode> kTfModes{
+    {{"target_source", Node::TfMode::kTargetSource}, {"map_odom", Node::TfMode::kMapOdom}}};
+
+std::vector<BasicParameter<Node>> makeNodeTable() {
+  using namespace table_entries;
+  return {
+      choice<Node>("target_mode", MAC_FIELD(target_mode), kTargetModes,
+                   "the latest cloud on target (a latched map, a keyframe), or the one synchronized with the "
+                   "source by stamp"),
+      real<Node>("sync_slop", MAC_FIELD(sync_slop), "s", Range::atLeast(0),
+                 "largest stamp difference of a synchronized pair"),
+      boolean<Node>("publish_tf", MAC_FIELD(publish_tf), "broadcast successful results on tf"),
+      choice<Node>(
+          "tf_mode", MAC_FIELD(tf_mode), kTfModes,
+          "target_source: target_frame -> source_frame; map_odom (REP-105): target_frame -> odom_frame"),
+      text<Node>("odom_frame", MAC_FIELD(odom_frame), "map_odom: the frame under the target frame"),
+      real<Node>("tf_timeout", MAC_FIELD(tf_timeout), "s", Range::atLeast(0),
+                 "map_odom: wait for odom_frame -> source_frame at the scan's stamp"),
+      real<Node>("map_odom_rate", MAC_FIELD(map_odom_rate), "Hz", Range::openClosed(0, 1000),
+                 "map_odom: re-send rate of the latest correction"),
+      real<Node>("transform_tolerance", MAC_FIELD(transform_tolerance), "s", Range::closed(0, 10),
+                 "map_odom: post-dating of each send"),
+      integer<Node>("max_marker_lines", MAC_FIELD(max_marker_lines), "lines", Range::atLeast(0),
+                    "outlier lines drawn at most on ~correspondence_markers (inliers are all drawn)"),
+      integer<Node>("service_threads", MAC_FIELD(service_threads), "threads", Range::closed(1, 64),
+                    "threads answering ~register and ~register_correspondences"),
+  };
 }
 
-void loadNodeParams(const ros::NodeHandle& nh, NodeParams& p, std::vector<std::string>& problems) {
-  std::string target_mode = p.target_mode == NodeParams::TargetMode::kLatest ? "latest" : "synchronized";
-  nh.param("target_mode", target_mode, target_mode);
-  if (target_mode == "latest")
-    p.target_mode = NodeParams::TargetMode::kLatest;
-  else if (target_mode == "synchronized")
-    p.target_mode = NodeParams::TargetMode::kSynchronized;
-  else
-    problems.push_back("~target_mode = '" + target_mode + "' must be 'latest' or 'synchronized'");
-
-  nh.param("sync_slop", p.sync_slop, p.sync_slop);
-  if (!(p.sync_slop >= 0.0)) problems.push_back("~sync_slop must be >= 0 [s]");
-  nh.param("publish_tf", p.publish_tf, p.publish_tf);
-  std::string tf_mode = p.tf_mode == NodeParams::TfMode::kTargetSource ? "target_source" : "map_odom";
-  nh.param("tf_mode", tf_mode, tf_mode);
-  if (tf_mode == "target_source")
-    p.tf_mode = NodeParams::TfMode::kTargetSource;
-  else if (tf_mode == "map_odom")
-    p.tf_mode = NodeParams::TfMode::kMapOdom;
-  else
-    problems.push_back("~tf_mode = '" + tf_mode + "' must be 'target_source' or 'map_odom'");
-  nh.param("odom_frame", p.odom_frame, p.odom_frame);
-  if (p.tf_mode == NodeParams::TfMode::kMapOdom && p.odom_frame.empty()) {
-    problems.push_back("~odom_frame must be set when ~tf_mode is map_odom");
-  }
-  nh.param("tf_timeout", p.tf_timeout, p.tf_timeout);
-  if (!(p.tf_timeout >= 0.0)) problems.push_back("~tf_timeout must be >= 0 [s]");
-  nh.param("map_odom_rate", p.map_odom_rate, p.map_odom_rate);
-  if (!(p.map_odom_rate > 0.0 && p.map_odom_rate <= 1000.0)) {
-    problems.push_back("~map_odom_rate = " + number(p.map_odom_rate) + " must be in (0, 1000] [Hz]");
-  }
-  nh.param("transform_tolerance", p.transform_tolerance, p.transform_tolerance);
-  if (!(p.transform_tolerance >= 0.0 && p.transform_tolerance <= 10.0)) {
-    problems.push_back("~transform_tolerance = " + number(p.transform_tolerance) + " must be in [0, 10] [s]");
-  }
-  nh.param("max_marker_lines", p.max_marker_lines, p.max_marker_lines);
-  if (p.max_marker_lines < 0) problems.push_back("~max_marker_lines must be >= 0");
-  nh.param("service_threads", p.service_threads, p.service_threads);
-  if (p.service_threads < 1 || p.service_threads > 64) {
-    problems.push_back("~service_threads = " + std::to_string(p.service_threads) + " must be in [1, 64]");
+// Each entry from ~key with its type: a value of the wrong type or name is reported, not replaced by the
+// default.
+void loadNodeParams(const ros::NodeHandle& nh, NodeParams& node, std::vector<std::string>& problems) {
+  for (const auto& p : nodeParameterTable()) {
+    XmlRpc::XmlRpcValue value;
+    if (!nh.getParam(p.key, value)) continue;
+    std::string given;
+    try {
+      const ParameterValue typed = toParameterValue(value);
+      given = "'" + formatParameterValue(typed) + "': ";
+      p.set(node, typed);
+    } catch (const std::exception& e) {
+      problems.push_back("~" + p.key + ": " + given + e.what());
+    }
   }
 }
 
 }  // namespace
+
+const std::vector<BasicParameter<NodeParams>>& nodeParameterTable() {
+  static const std::vector<BasicParameter<NodeParams>> table = makeNodeTable();
+  return table;
+}
+
+const BasicParameter<NodeParams>* findNodeParameter(const std::string& key) {
+  for (const auto& p : nodeParameterTable()) {
+    if (p.key == key) return &p;
+  }
+  return nullptr;
+}
+
+std::vector<std::string> validateNodeParams(const NodeParams& node) {
+  std::vector<std::string> problems;
+  for (const auto& p : nodeParameterTable()) {
+    std::string problem = rangeProblem(p, p.get(node));
+    if (!problem.empty()) problems.push_back(std::move(problem));
+  }
+  if (node.tf_mode == NodeParams::TfMode::kMapOdom && node.odom_frame.empty())
+    problems.push_back("odom_frame must be set when tf_mode is map_odom");
+  return problems;
+}
 
 std::vector<std::string> loadServerConfig(const ros::NodeHandle& nh, ServerConfig& config) {
   std::vector<std::string> problems;
@@ -119,23 +144,15 @@ std::vector<std::string> loadServerConfig(const ros::NodeHandle& nh, ServerConfi
   config.mac = algorithm.mac;
   config.features = algorithm.features;
   loadNodeParams(nh, config.node, problems);
-  for (const auto& p : validateConfig(algorithm)) problems.push_back(p);
+  for (auto& p : validateNodeParams(config.node)) problems.push_back(std::move(p));
+  for (auto& p : validateConfig(algorithm)) problems.push_back(std::move(p));
   return problems;
 }
 
 std::string describeConfig(const ServerConfig& c) {
-  std::ostringstream text;
-  text << "target_mode="
-       << (c.node.target_mode == NodeParams::TargetMode::kLatest ? "latest" : "synchronized")
-       << " publish_tf=" << (c.node.publish_tf ? "true" : "false")
-       << " tf_mode=" << (c.node.tf_mode == NodeParams::TfMode::kTargetSource ? "target_source" : "map_odom");
-  if (c.node.tf_mode == NodeParams::TfMode::kMapOdom) {
-    text << " (odom_frame=" << c.node.odom_frame << ", re-sent at " << c.node.map_odom_rate
-         << " Hz, stamped now + " << c.node.transform_tolerance << " s)";
-  }
-  text << " service_threads=" << c.node.service_threads << "\n"
-       << describeConfig(RegistrationConfig{c.mac, c.features});
-  return text.str();
+  std::string text;
+  for (const auto& p : nodeParameterTable()) text += "  " + describeParameter(p, p.get(c.node)) + "\n";
+  return text + describeConfig(RegistrationConfig{c.mac, c.features});
 }
 
 }  // namespace mac_registration

@@ -5,13 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "mac_registration/config/parameter_table.hpp"
 #include "mac_registration/core/parameters.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
 
 namespace mac_registration {
 
 // What the ROS node does with its inputs and results (the algorithm's parameters are in MacParams and
-// FeatureParams). Documented with units and defaults in config/registration_node.yaml.
+// FeatureParams). Each field is an entry of nodeParameterTable(), which holds its range, choices, unit
+// and meaning; config/registration_node.yaml documents them.
 struct NodeParams {
   enum class TargetMode { kLatest, kSynchronized };
   enum class TfMode { kTargetSource, kMapOdom };
@@ -28,6 +30,17 @@ struct NodeParams {
   int service_threads = 2;           // [count] threads answering ~register and ~register_correspondences
 };
 
+// The node's own parameters, private and top-level (~target_mode, ~map_odom_rate, ...), as entries of the
+// same type as the algorithm's table: loadServerConfig() reads and checks them from here and the start-up
+// log lists them. (num_threads is the algorithm table's.)
+const std::vector<BasicParameter<NodeParams>>& nodeParameterTable();
+
+// The entry of `key`, or nullptr.
+const BasicParameter<NodeParams>* findNodeParameter(const std::string& key);
+
+// Every problem with the node's parameters: values outside their ranges, then the rules between them.
+std::vector<std::string> validateNodeParams(const NodeParams& params);
+
 struct ServerConfig {
   NodeParams node;
   FeatureParams features;
@@ -39,7 +52,8 @@ struct ServerConfig {
 // Returns every problem as a sentence naming the parameter; empty when the configuration is usable.
 std::vector<std::string> loadServerConfig(const ros::NodeHandle& private_nh, ServerConfig& config);
 
-// The effective configuration on a few lines, for the start-up log.
+// The effective configuration, one parameter a line ("key = value [unit]"), the node's first, for the
+// start-up log.
 std::string describeConfig(const ServerConfig& config);
 
 }  // namespace mac_registration
