@@ -13,6 +13,7 @@
 #include <omp.h>
 
 #include "mac_registration/core/pose_error.hpp"
+#include "neighbour_grid.hpp"
 #include "refinement.hpp"
 
 namespace mac_registration {
@@ -108,110 +109,6 @@ double logPoissonTail(std::size_t k, double lambda) {
   return std::log(std::max(1.0 - lower, 1e-300));
 }
 
-// The finite targets sorted by their cell of a tau grid, so that the ones within tau of a point lie in its
-// 27 cells. The cell key packs x, y, z (21 bits each, two's complement wrapped) with z lowest, so that the
-// three cells of one (x, y) column around a point are one run of keys. Each column's keys are found by one
-// probe of a hash table of the columns, then a search within the column: a search over all the keys would
-// take a dozen dependent cache misses for each of the nine columns of every query.
-struct TargetGrid {
-  static constexpr std::uint64_t kFieldMask = 0x1fffff;
-  static constexpr std::uint64_t kNoColumn = ~std::uint64_t(0);  // no key has its top bit
-
-  struct ColumnRun {
-    std::uint64_t column = kNoColumn;   // the key of the column's z = 0 cell
-    std::uint32_t first = 0, last = 0;  // its keys
-  };
-
-  double tau;
-  std::vector<std::uint64_t> keys;  // ascending
-  Eigen::Matrix3Xd points;          // the targets in the order of keys
-  std::vector<ColumnRun> columns;   // open addressing, a power of two at least twice the columns
-  std::uint64_t slot_mask = 0;
-
-  TargetGrid(const Eigen::Matrix3Xd& targets, double cell_size) : tau(cell_size) {
-    std::vector<std::pair<std::uint64_t, Eigen::Index>> cells;
-    cells.reserve(static_cast<std::size_t>(targets.cols()));
-    for (Eigen::Index j = 0; j < targets.cols(); ++j) {
-      if (targets.col(j).allFinite()) cells.emplace_back(key(cellOf(targets.col(j)), 0, 0, 0), j);
-    }
-    std::sort(cells.begin(), cells.end());
-    keys.resize(cells.size());
-    points.resize(3, Eigen::Index(cells.size()));
-    for (std::size_t k = 0; k < cells.size(); ++k) {
-      keys[k] = cells[k].first;
-      points.col(Eigen::Index(k)) = targets.col(cells[k].second);
-    }
-    indexColumns();
-  }
-
-  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
-    return Eigen::Vector3i(int(std::floor(p.x() / tau)), int(std::floor(p.y() / tau)),
-                           int(std::floor(p.z() / tau)));
-  }
-
-  // The key of cell + (dx, dy, dz), each field wrapped to 21 bits (unsigned: no overflow).
-  static std::uint64_t key(const Eigen::Vector3i& cell, int dx, int dy, int dz) {
-    const auto field = [](int v, int d) {
-      return std::uint64_t((std::uint32_t(v) + std::uint32_t(d)) & kFieldMask);
-    };
-    return (field(cell.x(), dx) << 42) | (field(cell.y(), dy) << 21) | field(cell.z(), dz);
-  }
-
-  // visit(t) for every target t in cells cell + (dx, dy, -1..1): the keys from z - 1 to z + 1, in two runs
-  // where the z field wraps between them.
-  template <typename Visit>
-  void forEachInColumn(const Eigen::Vector3i& cell, int dx, int dy, Visit visit) const {
-    const std::uint64_t first = key(cell, dx, dy, -1);
-    const std::uint64_t column = first & ~kFieldMask;
-    const ColumnRun* run = find(column);
-    if (run == nullptr) return;
-    if ((first & kFieldMask) + 2 <= kFieldMask) {
-      forEachInKeys(*run, first, first + 2, visit);
-    } else {
-      forEachInKeys(*run, first, column | kFieldMask, visit);
-      forEachInKeys(*run, column, key(cell, dx, dy, 1), visit);
-    }
-  }
-
- private:
-  static std::uint64_t slotOf(std::uint64_t column) {  // splitmix64's finaliser
-    column = (column ^ (column >> 30)) * 0xBF58476D1CE4E5B9ull;
-    column = (column ^ (column >> 27)) * 0x94D049BB133111EBull;
-    return column ^ (column >> 31);
-  }
-
-  void indexColumns() {
-    std::size_t count = 0;
-    for (std::size_t k = 0; k < keys.size(); ++k) count += k == 0 || (keys[k] ^ keys[k - 1]) > kFieldMask;
-    std::size_t slots = 1;
-    while (slots < 2 * count) slots *= 2;
-    columns.assign(slots, ColumnRun());
-    slot_mask = slots - 1;
-    for (std::size_t k = 0; k < keys.size();) {
-      const std::uint64_t column = keys[k] & ~kFieldMask;
-      std::size_t end = k;
-      while (end < keys.size() && (keys[end] & ~kFieldMask) == column) ++end;
-      std::uint64_t slot = slotOf(column) & slot_mask;
-      while (columns[slot].column != kNoColumn) slot = (slot + 1) & slot_mask;
-      columns[slot] = {column, std::uint32_t(k), std::uint32_t(end)};
-      k = end;
-    }
-  }
-
-  const ColumnRun* find(std::uint64_t column) const {
-    for (std::uint64_t slot = slotOf(column) & slot_mask;; slot = (slot + 1) & slot_mask) {
-      if (columns[slot].column == column) return &columns[slot];
-      if (columns[slot].column == kNoColumn) return nullptr;
-    }
-  }
-
-  template <typename Visit>
-  void forEachInKeys(const ColumnRun& run, std::uint64_t lowest, std::uint64_t highest, Visit visit) const {
-    auto it = std::lower_bound(keys.begin() + run.first, keys.begin() + run.last, lowest);
-    for (; it != keys.begin() + run.last && *it <= highest; ++it) visit(Eigen::Index(it - keys.begin()));
-  }
-};
-
 struct RivalCandidate {
   int hypothesis = 0;
   double exclusive_score = 0.0;
@@ -239,7 +136,8 @@ double rmsDisplacement(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, c
 double chanceInliers(const CorrespondenceSet& c, const Eigen::Isometry3d& T, double tau, int num_threads) {
   const Eigen::Index n = c.target_points.cols();
   if (n == 0 || c.source_points.cols() != n || !(tau > 0.0)) return 0.0;
-  const TargetGrid grid(c.target_points, tau);
+  const NeighbourGrid<double> grid(
+      NeighbourGrid<double>::Points(c.target_points.data(), 3, n, Eigen::OuterStride<>(3)), tau);
   const double tau2 = tau * tau;
   const int threads = num_threads > 0 ? num_threads : omp_get_max_threads();
   // Integer counts: the total is the same in any order, so the same whatever the thread count.
@@ -248,11 +146,12 @@ double chanceInliers(const CorrespondenceSet& c, const Eigen::Isometry3d& T, dou
   for (Eigen::Index i = 0; i < n; ++i) {
     const Eigen::Vector3d p = T * c.source_points.col(i);
     if (!p.allFinite()) continue;
-    const Eigen::Vector3i centre = grid.cellOf(p);
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        grid.forEachInColumn(centre, dx, dy,
-                             [&](Eigen::Index t) { pairs += (grid.points.col(t) - p).squaredNorm() < tau2; });
+    std::size_t ranges[9][2];
+    const int rows = grid.candidateRanges(p, ranges);
+    for (int r = 0; r < rows; ++r) {
+      for (std::size_t s = ranges[r][0]; s < ranges[r][1]; ++s)
+        pairs += (Eigen::Vector3d(grid.x(s), grid.y(s), grid.z(s)) - p).squaredNorm() < tau2;
+    }
   }
   return double(pairs) / double(n);
 }

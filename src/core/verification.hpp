@@ -46,8 +46,9 @@ PointMoments pointMoments(const Eigen::Matrix3Xd& points);
 double rmsDisplacement(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const PointMoments& moments);
 
 // [count] The mean inlier count at T_target_source (residual < tau) over all pairings of the sources with
-// the targets: sum over i, j of [|T s_i - t_j| < tau] / N. O(N log N) expected, on a grid of the targets, on
-// num_threads threads (0 = OpenMP's default); the same count whatever num_threads.
+// the targets: sum over i, j of [|T s_i - t_j| < tau] / N. On the targets' neighbour grid (each source
+// tested against the targets of the 27 cells around it), on num_threads threads (0 = OpenMP's default);
+// the same count whatever num_threads.
 double chanceInliers(const CorrespondenceSet& correspondences, const Eigen::Isometry3d& T_target_source,
                      double tau, int num_threads = 1);
 

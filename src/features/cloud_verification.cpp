@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "mac_registration/features/cloud_filtering.hpp"
-#include "surface_grid.hpp"
+#include "radius_search.hpp"
 #include "verification.hpp"
 
 namespace mac_registration {
@@ -99,7 +99,7 @@ struct AlignmentJudge::View {
   Eigen::Vector3f viewpoint;
   float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
   float min_range = 0.0f;  // [m] of the nearest
-  SurfaceGrid near_grid;   // the points within tau of a placed point
+  CloudGrid near_grid;     // the points within tau of a placed point
   std::unique_ptr<RangeImage> image;
   // The free-space and seen-on-surface evidence may rest on the viewpoint: it is not more than
   // kFarthestViewpoint diagonals away from the cloud.
@@ -110,7 +110,7 @@ struct AlignmentJudge::View {
       : points(cloud),
         normals(cloud_normals && cloud_normals->size() == cloud->size() ? cloud_normals : nullptr),
         viewpoint(from),
-        near_grid(*cloud, tau) {
+        near_grid(cloudGrid(*cloud, tau)) {
     std::vector<float> ranges;
     ranges.reserve(cloud->size());
     for (const auto& p : *cloud) ranges.push_back((p.getVector3fMap() - viewpoint).norm());
@@ -143,7 +143,7 @@ struct AlignmentJudge::View {
       query.getVector3fMap() = placed[i];
       int nearest = 0;
       float squared = 0.0f;
-      const bool near = near_grid.nearest(query, nearest, squared);
+      const bool near = nearestWithin(near_grid, query, nearest, squared);
       float nearest_seen = 0.0f, range = 0.0f;
       const bool looked = image->lookup(placed[i], nearest_seen, range);
       on += near;

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "mac_registration/features/fpfh.hpp"
-#include "surface_grid.hpp"
+#include "radius_search.hpp"
 
 #if defined(__clang__)
 #pragma clang fp contract(off)
@@ -261,7 +261,7 @@ FpfhCloud::Ptr computeFpfh(const PointCloud::ConstPtr& keypoints, const PointClo
   if (!(radius > 0.0) || !std::isfinite(radius))
     throw std::invalid_argument("FPFH radius must be a finite length > 0 m, got " + std::to_string(radius));
   const int threads = threadCount(num_threads);
-  const SurfaceGrid grid(*surface, radius);
+  const CloudGrid grid = cloudGrid(*surface, radius);
   const std::vector<Neighbourhood> keypoint_hoods =
       searchAll(grid, *keypoints, allIndices(keypoints->size()), true, threads, stop);
   const bool same = keypoints == surface;

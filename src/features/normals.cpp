@@ -7,7 +7,7 @@
 #include <string>
 
 #include "mac_registration/features/normals.hpp"
-#include "surface_grid.hpp"
+#include "radius_search.hpp"
 
 namespace mac_registration {
 
@@ -18,7 +18,7 @@ NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const Point
   // PCL's NormalEstimationOMP, point for point: the same neighbour lists in the same order (the grid
   // instead of a kd-tree, whose build and queries cost more than the fits), PCL's own plane fit and
   // orientation on them.
-  const SurfaceGrid grid(*surface, radius);
+  const CloudGrid grid = cloudGrid(*surface, radius);
   auto normals = pcl::make_shared<NormalCloud>();
   const int n = static_cast<int>(points->size());
   normals->resize(n);
@@ -40,7 +40,7 @@ NormalCloud::Ptr estimateNormals(const PointCloud::ConstPtr& points, const Point
     for (int i = 0; i < n; ++i) {
       if (check.stopped()) continue;
       pcl::Normal& out = (*normals)[i];
-      grid.search((*points)[i], true, hood, keys, scratch);
+      radiusSearch(grid, (*points)[i], true, hood, keys, scratch);
       Eigen::Vector4f plane;
       if (hood.indices.empty() || !pcl::computePointNormal(*surface, hood.indices, plane, out.curvature)) {
         out.normal_x = out.normal_y = out.normal_z = out.curvature = std::numeric_limits<float>::quiet_NaN();
