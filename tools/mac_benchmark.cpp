@@ -449,7 +449,7 @@ void printProgress(std::ostream& out, std::size_t k, std::size_t count, const Pa
     return;
   }
   out << " " << r.correspondences << " corr, " << std::fixed << std::setprecision(1) << 100.0 * r.inlier_ratio
-      << "% inliers, front end " << std::setprecision(0) << r.front_end.total() << "ms";
+      << "% inliers, front end " << std::setprecision(0) << r.front_end.frontEndMs() << "ms";
   for (const MethodOutcome& m : r.methods) out << " | " << describeMethod(m);
   out << std::endl;
 }

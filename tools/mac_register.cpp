@@ -99,9 +99,10 @@ void printFrontEnd(std::ostream& out, const mac_registration::FrontEndStats& s, 
     out << "resolution not estimated, ";
   out << correspondences << " correspondences (" << s.rejected_mutual << " rejected by the mutual check, "
       << s.rejected_ratio << " by the ratio test, " << s.truncated << " beyond max_correspondences)\n"
-      << std::setprecision(2) << "front-end time [ms]: resolution " << s.resolution_ms << ", downsample "
-      << s.downsample_ms << ", normals " << s.normals_ms << ", fpfh " << s.features_ms << ", matching "
-      << s.matching_ms << ", total " << s.totalMs() << "\n";
+      << std::setprecision(2) << "front-end time [ms]: resolution " << s.times.resolution_ms
+      << ", downsample " << s.times.downsample_ms << ", normals " << s.times.normals_ms << ", fpfh "
+      << s.times.features_ms << ", matching " << s.times.matching_ms << ", total " << s.times.total_ms
+      << "\n";
   out.unsetf(std::ios::fixed);
 }
 

@@ -156,12 +156,12 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
   // 3DMatch fragment), and only the resolution-unit d_cmp needs the result.
   if (resolutionNeeded(params))
     out.resolution = meanNearestNeighbourDistance(finite, params.resolution_samples, stop);
-  out.resolution_ms = millisecondsSince(start);
+  out.times.resolution_ms = millisecondsSince(start);
 
   start = Clock::now();
   PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size, params.num_threads, stop);
   out.voxels = voxels->size();
-  out.downsample_ms = millisecondsSince(start);
+  out.times.downsample_ms = millisecondsSince(start);
 
   start = Clock::now();
   const double normal_radius = params.normal_radius_factor * params.voxel_size;
@@ -170,7 +170,7 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
   const std::vector<int> with_normal = finiteNormals(*normals);
   voxels = subset(*voxels, with_normal);
   const NormalCloud::Ptr kept_normals = subset(*normals, with_normal);
-  out.normals_ms = millisecondsSince(start);
+  out.times.normals_ms = millisecondsSince(start);
 
   PointCloud::Ptr surface = voxels;
   NormalCloud::Ptr surface_normals = kept_normals;
@@ -178,14 +178,14 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
     start = Clock::now();
     surface =
         voxelDownsample(*voxels, params.support_voxel_factor * params.voxel_size, params.num_threads, stop);
-    out.downsample_ms += millisecondsSince(start);
+    out.times.downsample_ms += millisecondsSince(start);
     start = Clock::now();
     // Fitted to the keypoints around each surface point, not to the few surface points themselves.
     const NormalCloud::Ptr fitted = estimateNormals(surface, voxels, normal_radius, params.num_threads, stop);
     const std::vector<int> fitted_finite = finiteNormals(*fitted);
     surface = subset(*surface, fitted_finite);
     surface_normals = subset(*fitted, fitted_finite);
-    out.normals_ms += millisecondsSince(start);
+    out.times.normals_ms += millisecondsSince(start);
   }
   out.support_points = surface->size();
 
@@ -202,7 +202,8 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
   out.descriptors = subset(*descriptors, usable);
   out.descriptor_index = std::make_shared<const DescriptorIndex>(out.descriptors);
   out.no_feature = out.voxels - usable.size();
-  out.features_ms = millisecondsSince(start);
+  out.times.features_ms = millisecondsSince(start);
+  out.times.total_ms = out.times.frontEndMs();
   return out;
 }
 
@@ -236,10 +237,8 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   stats.target_no_feature = t.no_feature;
   stats.resolution = 0.5 * (s.resolution + t.resolution);
   stats.voxel_size = t.params.voxel_size;
-  stats.resolution_ms = s.resolution_ms + t.resolution_ms;
-  stats.downsample_ms = s.downsample_ms + t.downsample_ms;
-  stats.normals_ms = s.normals_ms + t.normals_ms;
-  stats.features_ms = s.features_ms + t.features_ms;
+  stats.times = s.times;
+  stats.times += t.times;
 
   const auto start = Clock::now();
   MatchingStats matching;
@@ -272,7 +271,8 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   out.target_keypoint_normals = t.normals;
   out.source_viewpoint = s.viewpoint;
   out.target_viewpoint = t.viewpoint;
-  stats.matching_ms = millisecondsSince(start);
+  stats.times.matching_ms = millisecondsSince(start);
+  stats.times.total_ms += stats.times.matching_ms;
   return out;
 }
 

@@ -273,15 +273,21 @@ void fillResultMsg(const MacResult& r, mac_registration::RegistrationResult& msg
   msg.hypotheses = r.counters.hypotheses;
   msg.inliers = r.counters.inliers;
   msg.clique_search_complete = r.clique_search_complete;
-  msg.time_graph_ms = r.times.graph_ms;
-  msg.time_second_order_ms = r.times.second_order_ms;
-  msg.time_clique_search_ms = r.times.clique_search_ms;
-  msg.time_selection_ms = r.times.selection_ms;
-  msg.time_hypotheses_ms = r.times.hypotheses_ms;
-  msg.time_evaluation_ms = r.times.evaluation_ms;
-  msg.time_refinement_ms = r.times.refinement_ms;
-  msg.time_total_ms = r.times.total_ms + msg.time_front_end_ms;
+  fillStageTimes(r.times, msg);
   fillVerification(r, msg);
+}
+
+void fillStageTimes(const StageTimes& t, mac_registration::RegistrationResult& msg) {
+  msg.time_front_end_ms = t.frontEndMs();
+  msg.time_graph_ms = t.graph_ms;
+  msg.time_second_order_ms = t.second_order_ms;
+  msg.time_clique_search_ms = t.clique_search_ms;
+  msg.time_selection_ms = t.selection_ms;
+  msg.time_hypotheses_ms = t.hypotheses_ms;
+  msg.time_evaluation_ms = t.evaluation_ms;
+  msg.time_refinement_ms = t.refinement_ms;
+  msg.time_verification_ms = t.verification_ms;
+  msg.time_total_ms = t.total_ms;
 }
 
 void fillVerification(const MacResult& r, mac_registration::RegistrationResult& msg) {
@@ -309,7 +315,6 @@ void fillVerification(const MacResult& r, mac_registration::RegistrationResult& 
     alternative.displacement = a.displacement;
     msg.alternatives.push_back(alternative);
   }
-  msg.time_verification_ms = r.times.verification_ms;
 }
 
 void fillFrontEndStats(const FrontEndStats& s, mac_registration::RegistrationResult& msg) {
@@ -319,7 +324,6 @@ void fillFrontEndStats(const FrontEndStats& s, mac_registration::RegistrationRes
   msg.source_keypoints = s.source_keypoints;
   msg.target_keypoints = s.target_keypoints;
   msg.resolution = s.resolution;
-  msg.time_front_end_ms = s.totalMs();
 }
 
 }  // namespace mac_registration

@@ -51,6 +51,16 @@ void markFailed(mac_registration::RegistrationResult& msg, std::uint8_t status, 
   msg.transform.rotation.w = 1.0;
 }
 
+// `times` without those of describing `described` (a target, timed apart with its conversion; 0 once cached).
+StageTimes withoutDescription(StageTimes times, const StageTimes& described) {
+  times.resolution_ms -= described.resolution_ms;
+  times.downsample_ms -= described.downsample_ms;
+  times.normals_ms -= described.normals_ms;
+  times.features_ms -= described.features_ms;
+  times.total_ms -= described.total_ms;
+  return times;
+}
+
 // Enough for a burst of inputs while the callback thread is busy elsewhere; beyond that roscpp would
 // drop without a trace, whereas the slot counts what it replaces.
 constexpr std::uint32_t kInputQueueSize = 5;
@@ -99,31 +109,29 @@ std::string stampText(const ros::Time& stamp) {
 }  // namespace
 
 // The latency quantiles and the mean time of each stage over the latest topic registrations.
-void RegistrationServer::reportRecentTimes(const std::deque<StageTimes>& recent,
+void RegistrationServer::reportRecentTimes(const std::deque<Timing>& recent,
                                            diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("timed results", recent.size());
   std::vector<double> latency;
-  StageTimes sum;
-  for (const StageTimes& t : recent) {
-    latency.push_back(t.latency);
-    sum.conversion += t.conversion;
-    sum.target_description += t.target_description;
-    sum.source_description += t.source_description;
-    sum.matching += t.matching;
-    sum.core += t.core;
-    sum.verification += t.verification;
-    sum.publication += t.publication;
+  Timing sum;
+  for (const Timing& t : recent) {
+    latency.push_back(t.latency_ms);
+    sum.stages += t.stages;
+    sum.conversion_ms += t.conversion_ms;
+    sum.target_description_ms += t.target_description_ms;
+    sum.publication_ms += t.publication_ms;
   }
+  const StageTimes& s = sum.stages;
   const double n = std::max<std::size_t>(1, recent.size());
   status.addf("latency p50 [ms]", "%.1f", quantile(latency, 0.5));
   status.addf("latency p95 [ms]", "%.1f", quantile(latency, 0.95));
-  status.addf("mean conversion [ms]", "%.1f", sum.conversion / n);
-  status.addf("mean target description [ms]", "%.1f", sum.target_description / n);
-  status.addf("mean source description [ms]", "%.1f", sum.source_description / n);
-  status.addf("mean matching [ms]", "%.1f", sum.matching / n);
-  status.addf("mean core [ms]", "%.1f", sum.core / n);
-  status.addf("mean verification [ms]", "%.1f", sum.verification / n);
-  status.addf("mean publication [ms]", "%.1f", sum.publication / n);
+  status.addf("mean conversion [ms]", "%.1f", sum.conversion_ms / n);
+  status.addf("mean target description [ms]", "%.1f", sum.target_description_ms / n);
+  status.addf("mean source description [ms]", "%.1f", (s.frontEndMs() - s.matching_ms) / n);
+  status.addf("mean matching [ms]", "%.1f", s.matching_ms / n);
+  status.addf("mean core [ms]", "%.1f", (s.total_ms - s.frontEndMs() - s.verification_ms) / n);
+  status.addf("mean verification [ms]", "%.1f", s.verification_ms / n);
+  status.addf("mean publication [ms]", "%.1f", sum.publication_ms / n);
 }
 
 RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -342,10 +350,10 @@ void RegistrationServer::workerLoop() {
       }
       const auto publishing = Clock::now();
       publish(outcome);
-      outcome.times.publication = millisecondsSince(publishing);
+      outcome.timing.publication_ms = millisecondsSince(publishing);
       const ros::Time stamp = outcome.msg.header.stamp;  // the input's, or its arrival when zero
-      outcome.times.latency = (ros::Time::now() - stamp).toSec() * 1000.0;
-      recordTimes(outcome.times);
+      outcome.timing.latency_ms = (ros::Time::now() - stamp).toSec() * 1000.0;
+      recordTiming(outcome.timing);
     } catch (const std::exception& e) {
       // Never let one bad message end the worker (or the nodelet manager with it).
       ROS_ERROR_STREAM("mac_registration: registration failed unexpectedly: " << e.what());
@@ -407,7 +415,7 @@ std::shared_ptr<const DescribedCloud> RegistrationServer::describedTarget(
   // Later registrations against the same target spend no time on it: the cached copy says so. It shares
   // the keypoints and descriptors (pointers), so this copies no points.
   auto reused = std::make_shared<DescribedCloud>(*described);
-  reused->resolution_ms = reused->downsample_ms = reused->normals_ms = reused->features_ms = 0.0;
+  reused->times = StageTimes();
   target_cache_ = {target, reused, dropped};
   return described;
 }
@@ -419,7 +427,7 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
   Outcome outcome;
   auto start = Clock::now();
   const CloudConversion source_cloud = toPointCloud(source);
-  outcome.times.conversion = millisecondsSince(start);
+  outcome.timing.conversion_ms = millisecondsSince(start);
   std::size_t target_dropped = 0;
   std::shared_ptr<const DescribedCloud> target_described;
   if (!source_cloud.error.empty()) {
@@ -428,7 +436,7 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
     try {
       start = Clock::now();
       target_described = describedTarget(target, cfg.features, target_dropped, cache_target);
-      outcome.times.target_description = millisecondsSince(start);
+      outcome.timing.target_description_ms = millisecondsSince(start);
     } catch (const Cancelled& e) {
       outcome.msg = cancelled(e.what());  // nothing cached: the next registration describes it afresh
     } catch (const std::invalid_argument& e) {
@@ -439,16 +447,9 @@ RegistrationServer::Outcome RegistrationServer::registerClouds(const sensor_msgs
     CloudRegistrationResult result =
         registerCloudToDescribed(*source_cloud.cloud, *target_described, cfg.features, cfg.mac, &stop_);
     fillFrontEndStats(result.features.stats, outcome.msg);
-    const FrontEndStats& stats = result.features.stats;
-    const DescribedCloud& t = *target_described;
-    // The stats add the target's own times (0 once cached) to the source's.
-    outcome.times.source_description = stats.resolution_ms + stats.downsample_ms + stats.normals_ms +
-                                       stats.features_ms -
-                                       (t.resolution_ms + t.downsample_ms + t.normals_ms + t.features_ms);
-    outcome.times.matching = stats.matching_ms;
-    outcome.times.verification = result.registration.times.verification_ms;
-    outcome.times.core = result.registration.times.total_ms - result.registration.times.verification_ms;
     fillResultMsg(result.registration, outcome.msg);
+    fillStageTimes(result.times(), outcome.msg);
+    outcome.timing.stages = withoutDescription(result.times(), target_described->times);
     outcome.msg.dropped_points = source_cloud.dropped_non_finite + target_dropped;
     if (outcome.msg.dropped_points > 0) {
       outcome.msg.warnings.push_back("dropped " + std::to_string(outcome.msg.dropped_points) +
@@ -600,9 +601,9 @@ void RegistrationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatusW
   reportRecentTimes(recent_times_, status);
 }
 
-void RegistrationServer::recordTimes(const StageTimes& times) {
+void RegistrationServer::recordTiming(const Timing& timing) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  recent_times_.push_back(times);
+  recent_times_.push_back(timing);
   if (recent_times_.size() > kTimedResults) recent_times_.pop_front();
 }
 

@@ -118,7 +118,7 @@ std::string open3dMissing() {
   } while (0)
 
 TEST(StageShares, OtherHoldsTheUntimedRestAndSharesAddUpToTheTotal) {
-  FrontEndTimes f;
+  StageTimes f;
   f.features_ms = 30.0;
   StageTimes s;
   s.graph_ms = 10.0;

@@ -81,7 +81,7 @@ MethodOutcome open3dOutcome(const BenchmarkPair& pair, const BenchmarkSettings& 
     m.translation_error = translationError(run.T_target_source, pair.T_target_source_gt);
   }
   m.inliers = run.inliers;
-  FrontEndTimes f;
+  StageTimes f;
   f.downsample_ms = run.downsample_ms;
   f.normals_ms = run.normals_ms;
   f.features_ms = run.fpfh_ms;
@@ -119,7 +119,7 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
   auto features =
       std::make_shared<FeatureCorrespondences>(computeCorrespondences(*source, *target, settings.features));
   const FrontEndStats& s = features->stats;
-  prepared.front_end = {s.resolution_ms, s.downsample_ms, s.normals_ms, s.features_ms, s.matching_ms};
+  prepared.front_end = s.times;
   prepared.source_points = s.source_points;
   prepared.target_points = s.target_points;
   prepared.correspondences = features->correspondences;

@@ -38,7 +38,7 @@ bool benchmarkHasFeatures();
 struct PreparedPair {
   CorrespondenceSet correspondences;
   MacParams mac;
-  FrontEndTimes front_end;
+  StageTimes front_end;
   std::size_t source_points = 0, target_points = 0;  // as read
   // A new witness of the clouds for one registration (empty for correspondence sets), as registerClouds()
   // builds one. It reads the keypoints only, so it also judges results on other correspondence sets

@@ -32,7 +32,7 @@ SummaryRow summarizeGroup(const std::string& subset, const std::string& method,
   row.method = method;
   row.pairs = pairs.size();
   std::vector<const MethodOutcome*> ran;
-  std::vector<const FrontEndTimes*> front_ends;
+  std::vector<const StageTimes*> front_ends;
   std::vector<double> totals, peaks;
   double inlier_ratios = 0.0, rotation = 0.0, translation = 0.0;
   for (const PairOutcome* pair : pairs) {
@@ -41,7 +41,7 @@ SummaryRow summarizeGroup(const std::string& subset, const std::string& method,
     if (it == pair->methods.end()) continue;
     ran.push_back(&*it);
     front_ends.push_back(&pair->frontEndOf(*it));
-    totals.push_back(pair->frontEndOf(*it).total() + it->times.total_ms);
+    totals.push_back(pair->frontEndOf(*it).frontEndMs() + it->times.total_ms);
     if (!std::isnan(it->peak_mb)) peaks.push_back(it->peak_mb);
     inlier_ratios += pair->inlier_ratio;
     if (it->recalled) {
@@ -57,14 +57,14 @@ SummaryRow summarizeGroup(const std::string& subset, const std::string& method,
   }
   row.mean_inlier_ratio = ran.empty() ? 0.0 : inlier_ratios / double(ran.size());
 
-  using F = FrontEndTimes;
-  FrontEndTimes& f = row.median_front_end;
+  using F = StageTimes;
+  StageTimes& f = row.median_front_end;
   f.resolution_ms = medianOf<F>(front_ends, [](const F& t) { return t.resolution_ms; });
   f.downsample_ms = medianOf<F>(front_ends, [](const F& t) { return t.downsample_ms; });
   f.normals_ms = medianOf<F>(front_ends, [](const F& t) { return t.normals_ms; });
   f.features_ms = medianOf<F>(front_ends, [](const F& t) { return t.features_ms; });
   f.matching_ms = medianOf<F>(front_ends, [](const F& t) { return t.matching_ms; });
-  row.median_front_end_total_ms = medianOf<F>(front_ends, [](const F& t) { return t.total(); });
+  row.median_front_end_total_ms = medianOf<F>(front_ends, [](const F& t) { return t.frontEndMs(); });
 
   using M = MethodOutcome;
   StageTimes& s = row.median_times;
@@ -109,7 +109,7 @@ double ratio(double ours, double peer) { return peer > 0.0 ? ours / peer : std::
 
 }  // namespace
 
-std::vector<StageShare> stageShares(const FrontEndTimes& f, const StageTimes& s, double total_ms) {
+std::vector<StageShare> stageShares(const StageTimes& f, const StageTimes& s, double total_ms) {
   std::vector<StageShare> shares = {
       {"resol", f.resolution_ms},   {"voxel", f.downsample_ms},      {"normals", f.normals_ms},
       {"fpfh", f.features_ms},      {"match", f.matching_ms},        {"graph", s.graph_ms},
@@ -186,7 +186,7 @@ void printSummary(std::ostream& out, const std::vector<SummaryRow>& rows, const 
       << std::setw(8) << "refine" << std::setw(8) << "verify" << std::setw(9) << "total"
       << "\n";
   for (const SummaryRow& r : rows) {
-    const FrontEndTimes& f = r.median_front_end;
+    const StageTimes& f = r.median_front_end;
     const StageTimes& s = r.median_times;
     out << std::left << std::setw(subset_width) << r.subset << std::setw(method_width) << r.method
         << std::right << std::setprecision(1);
@@ -243,9 +243,9 @@ void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outc
     int k = 0;
     for (const std::string& name : {ours, peer}) {
       const MethodOutcome& m = *find(*p, name);
-      const FrontEndTimes& f = p->frontEndOf(m);
+      const StageTimes& f = p->frontEndOf(m);
       // ours: the resolution estimate (0 unless asked for) belongs to the front end's first stage
-      totals[k] = f.total() + m.times.total_ms;
+      totals[k] = f.frontEndMs() + m.times.total_ms;
       peaks[k] = m.peak_mb;
       out << std::setw(18) << verdict(m) << std::setw(7) << f.resolution_ms + f.downsample_ms << std::setw(8)
           << f.normals_ms << std::setw(7) << f.features_ms << std::setw(8) << f.matching_ms + m.times.total_ms
@@ -282,7 +282,7 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
   };
   out << std::setprecision(9);
   for (const PairOutcome& p : outcomes) {
-    const FrontEndTimes& f = p.front_end;
+    const StageTimes& f = p.front_end;
     const auto prefix = [&](const std::string& method) {
       out << quoted(p.name) << "," << quoted(p.subset) << "," << method << "," << p.correspondences << ","
           << p.inlier_ratio << ",";
@@ -291,15 +291,15 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
       prefix("");
       out << "0,,,,0,0," << f.resolution_ms << "," << f.downsample_ms << "," << f.normals_ms << ","
           << f.features_ms << "," << f.matching_ms << ",0,0,0,0,0,0,0,0,0," << p.source_points << ","
-          << p.target_points << "," << f.total() << ",nan";
-      for (const StageShare& stage : stageShares(f, {}, f.total())) out << "," << stage.percent;
+          << p.target_points << "," << f.frontEndMs() << ",nan";
+      for (const StageShare& stage : stageShares(f, {}, f.frontEndMs())) out << "," << stage.percent;
       out << "," << quoted(p.error) << "\n";
       continue;
     }
     for (const MethodOutcome& m : p.methods) {
       const StageTimes& s = m.times;
-      const FrontEndTimes& f = p.frontEndOf(m);
-      const double total = f.total() + s.total_ms;
+      const StageTimes& f = p.frontEndOf(m);
+      const double total = f.frontEndMs() + s.total_ms;
       prefix(m.method);
       out << m.registered << "," << quoted(m.status) << "," << m.rotation_error_deg << ","
           << m.translation_error << "," << m.recalled << "," << m.inliers << "," << f.resolution_ms << ","

@@ -20,12 +20,6 @@ struct SuccessCriterion {
   }
 };
 
-// Time of the front end per stage [ms], zero for correspondence sets.
-struct FrontEndTimes {
-  double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0, matching_ms = 0.0;
-  double total() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
-};
-
 // What one method made of one pair.
 struct MethodOutcome {
   std::string method;       // "MAC", "RANSAC"
@@ -37,7 +31,7 @@ struct MethodOutcome {
   std::size_t inliers = 0;  // of its own transform, at its own threshold
   StageTimes times;         // per stage for MAC, total only for the baselines
   // A peer with its own front end (Open3D on the clouds) sets its stages here; unset: the pair's, ours.
-  std::optional<FrontEndTimes> front_end;
+  std::optional<StageTimes> front_end;
   // [MiB] peak resident memory of the process while the method ran on this pair (front end included);
   // NaN when not measured (RANSAC shares MAC's process after MAC's peak was taken).
   double peak_mb = std::numeric_limits<double>::quiet_NaN();
@@ -49,12 +43,12 @@ struct PairOutcome {
   std::size_t correspondences = 0;
   // Share of the correspondences within tau of their target under the ground truth.
   double inlier_ratio = 0.0;
-  FrontEndTimes front_end;                           // ours
+  StageTimes front_end;  // ours: its front-end stages, all 0 for correspondence sets
   std::size_t source_points = 0, target_points = 0;  // of the clouds as read (0 for correspondence sets)
   std::vector<MethodOutcome> methods;                // same methods, same order, for every pair that ran
 
   // The front end `m` ran after: its own, else ours.
-  const FrontEndTimes& frontEndOf(const MethodOutcome& m) const {
+  const StageTimes& frontEndOf(const MethodOutcome& m) const {
     return m.front_end ? *m.front_end : front_end;
   }
 };
@@ -73,8 +67,7 @@ double median(std::vector<double> values);
 // Each stage's time and its share of `total_ms` (front end + method) [%]; the shares of a run whose
 // stages cover its whole time add up to 100, and a last entry "other" holds the untimed rest (the
 // baselines' whole method time), never negative.
-std::vector<StageShare> stageShares(const FrontEndTimes& front_end, const StageTimes& method,
-                                    double total_ms);
+std::vector<StageShare> stageShares(const StageTimes& front_end, const StageTimes& method, double total_ms);
 
 // The method's outcome for a pair, after the criterion: recalled = registered && criterion accepts.
 MethodOutcome judge(MethodOutcome outcome, const SuccessCriterion& criterion);
@@ -88,7 +81,7 @@ struct SummaryRow {
   double mean_rotation_error_deg = std::numeric_limits<double>::quiet_NaN();  // over recalled pairs
   double mean_translation_error = std::numeric_limits<double>::quiet_NaN();   // [m], over recalled pairs
   double mean_inlier_ratio = 0.0;  // of the correspondences, over the pairs that ran
-  FrontEndTimes median_front_end;  // stage by stage, over the pairs that ran
+  StageTimes median_front_end;     // its front-end stages, stage by stage, over the pairs that ran
   double median_front_end_total_ms = 0.0;
   StageTimes median_times;       // stage by stage, over the pairs that ran
   double median_total_ms = 0.0;  // front end + method, per pair

@@ -95,7 +95,7 @@ std::vector<VerificationCase> runVerificationPair(const BenchmarkPair& pair,
     return {base};
   }
   const double tau = prepared.mac.evaluation.inlier_threshold;
-  base.front_end_ms = prepared.front_end.total();
+  base.front_end_ms = prepared.front_end.frontEndMs();
   std::vector<VerificationCase> cases;
   const auto run = [&](VerificationCase c, const CorrespondenceSet& set) {
     c.correspondences = set.size();

@@ -27,7 +27,18 @@ enum class RegistrationStatus : std::uint8_t {
 
 const char* toString(RegistrationStatus status);
 
-struct StageTimes {               // wall-clock milliseconds
+// Where the time of a registration went: wall-clock milliseconds per stage, in the order the stages run.
+// One struct from the front end to the node's result message (RegistrationResult's time_*_ms fields):
+// the front end fills its stages (FrontEndStats::times), the core its own (MacResult::times), and a
+// registration from clouds adds the two (operator+=). Stages that did not run stay 0.
+struct StageTimes {
+  // The front end (mac_registration/features), both clouds together.
+  double resolution_ms = 0.0;  // mean nearest-neighbour distance of the given clouds, when it is needed
+  double downsample_ms = 0.0;  // voxel grid
+  double normals_ms = 0.0;
+  double features_ms = 0.0;  // FPFH
+  double matching_ms = 0.0;  // descriptor search
+  // The core.
   double graph_ms = 0.0;          // first-order graph
   double second_order_ms = 0.0;   // SOG weights
   double clique_search_ms = 0.0;  // igraph enumeration, excluding the selection it streams into and the wait
@@ -41,7 +52,13 @@ struct StageTimes {               // wall-clock milliseconds
   double evaluation_ms = 0.0;  // scoring every hypothesis on all correspondences
   double refinement_ms = 0.0;
   double verification_ms = 0.0;  // signals, alternatives and confidence (with a witness: its judging too)
+  // From the start of the first stage timed here to the end of the last, what lies between them included
+  // (the core's bookkeeping around its stages): at least the sum of the stages.
   double total_ms = 0.0;
+
+  double frontEndMs() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
+  // Every field, total_ms included: the times of stages that ran one after the other.
+  StageTimes& operator+=(const StageTimes& other);
 };
 
 struct RegistrationCounters {

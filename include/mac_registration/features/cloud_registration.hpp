@@ -27,8 +27,7 @@ struct FrontEndStats {
   // (see resolutionNeeded).
   double resolution = 0.0;
   double voxel_size = 0.0;  // [m] the leaf both clouds were described with (features.voxel_size resolved)
-  double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0, matching_ms = 0.0;
-  double totalMs() const { return resolution_ms + downsample_ms + normals_ms + features_ms + matching_ms; }
+  StageTimes times;         // the front end's stages, source and target together
 };
 
 struct FeatureCorrespondences {
@@ -64,7 +63,7 @@ struct DescribedCloud {
   std::size_t support_points = 0;  // of the FPFH surface (features.support_voxel_factor), with a normal
   // Where the sensor was, in the cloud's frame (its sensor_origin_: a PCD's VIEWPOINT, else the origin).
   Eigen::Vector3f viewpoint = Eigen::Vector3f::Zero();
-  double resolution_ms = 0.0, downsample_ms = 0.0, normals_ms = 0.0, features_ms = 0.0;
+  StageTimes times;  // describing it: resolution, downsample, normals, features
 };
 
 // Whether describeCloud estimates the resolution: only features.gaussian_sigma_resolutions > 0 uses it.
@@ -97,8 +96,15 @@ FeatureCorrespondences computeCorrespondences(const PointCloud& source, const Po
                                               const FeatureParams& params, const StopFlag* stop = nullptr);
 
 struct CloudRegistrationResult {
-  MacResult registration;  // its inlier indices refer to correspondences below
-  FeatureCorrespondences features;
+  MacResult registration;  // its inlier indices refer to correspondences below; its times are the core's
+  FeatureCorrespondences features;  // stats.times: the front end's
+
+  // The whole registration's, stage by stage: the front end's and the core's.
+  StageTimes times() const {
+    StageTimes all = features.stats.times;
+    all += registration.times;
+    return all;
+  }
 };
 
 // The core's parameters as a cloud registration uses them: graph.gaussian_sigma from

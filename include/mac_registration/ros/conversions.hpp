@@ -47,11 +47,15 @@ std::uint8_t toStatusMsg(RegistrationStatus status);
 // The words of a RegistrationResult.status, for logs ("too few inliers", "missing odometry").
 std::string statusName(std::uint8_t status);
 
-// Fills the core part of a result message (status, transform, counters, times).
+// Fills the core part of a result message (status, transform, counters, the core's times).
 void fillResultMsg(const MacResult& result, mac_registration::RegistrationResult& msg);
+// The message's time_*_ms fields, each from the StageTimes field of its name (time_front_end_ms: the front
+// end's stages together). From clouds: CloudRegistrationResult::times(), after fillResultMsg.
+void fillStageTimes(const StageTimes& times, mac_registration::RegistrationResult& msg);
 // The verification's part of the message (fillResultMsg calls it): confidence, the estimate (also when
 // unverified), the signals and the alternatives.
 void fillVerification(const MacResult& result, mac_registration::RegistrationResult& msg);
+// The front end's counters (its times go with the core's, through fillStageTimes).
 void fillFrontEndStats(const FrontEndStats& stats, mac_registration::RegistrationResult& msg);
 
 }  // namespace mac_registration

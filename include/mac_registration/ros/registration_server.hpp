@@ -55,16 +55,15 @@ class RegistrationServer {
     mac_registration::CorrespondencesConstPtr correspondences;
     ros::Time received;  // stands in for a zero header.stamp
   };
-  // Where the time of one registration went [ms]: what /diagnostics averages over the latest results.
-  struct StageTimes {
-    double conversion = 0.0;          // PointCloud2 -> finite PCL cloud (the source)
-    double target_description = 0.0;  // conversion and description of the target; 0 when cached
-    double source_description = 0.0;  // voxel grid, normals, FPFH of the source
-    double matching = 0.0;            // descriptor search
-    double core = 0.0;                // graph, cliques, hypotheses, refinement
-    double verification = 0.0;
-    double publication = 0.0;  // ~result, tf, and ~aligned / markers when subscribed
-    double latency = 0.0;      // the input's stamp (its arrival when zero) to the end of publication
+  // Where the time of one registration went: what /diagnostics averages over the latest results.
+  struct Timing {
+    // The registration's stages from clouds in: the source's description, the matching and the core. A
+    // target described for it is timed in target_description_ms instead.
+    StageTimes stages;
+    double conversion_ms = 0.0;          // PointCloud2 -> finite PCL cloud (the source)
+    double target_description_ms = 0.0;  // conversion and description of the target; 0 when cached
+    double publication_ms = 0.0;         // ~result, tf, and ~aligned / markers when subscribed
+    double latency_ms = 0.0;  // the input's stamp (its arrival when zero) to the end of publication
   };
   // A registration with what the visual outputs need.
   struct Outcome {
@@ -75,7 +74,7 @@ class RegistrationServer {
     Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
     // When to look the odometry up (map_odom mode): the input's stamp; zero means the latest.
     ros::Time odometry_stamp;
-    StageTimes times;
+    Timing timing;
   };
   using SyncPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::PointCloud2, sensor_msgs::PointCloud2>;
@@ -115,8 +114,8 @@ class RegistrationServer {
   void publishTf(Outcome& outcome, const NodeParams& node);
   void watchForShutdown();
   void reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
-  void recordTimes(const StageTimes& times);
-  static void reportRecentTimes(const std::deque<StageTimes>& recent,
+  void recordTiming(const Timing& timing);
+  static void reportRecentTimes(const std::deque<Timing>& recent,
                                 diagnostic_updater::DiagnosticStatusWrapper& status);
   ServerConfig config() const;
 
@@ -156,7 +155,7 @@ class RegistrationServer {
   std::size_t inputs_received_ = 0;      // on the topics (sources, synchronized pairs, correspondences)
   std::size_t target_descriptions_ = 0;  // times a target cloud was described
   double last_target_description_ms_ = 0.0;
-  std::deque<StageTimes> recent_times_;  // of the latest topic registrations, newest last
+  std::deque<Timing> recent_times_;  // of the latest topic registrations, newest last
   mac_registration::RegistrationResult last_result_;
 
   StopFlag stop_{false};
