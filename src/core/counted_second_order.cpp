@@ -42,23 +42,11 @@ std::size_t activeNodes(const UpperRows& rows) {
 
 std::size_t wordsPerRow(std::size_t active) { return (active + 511) / 512 * 8; }
 
-// Transposes a 64 x 64 bit block in place, bit c of a[r] being entry (r, c): swaps its off-diagonal
-// halves, then the quarters' within each half, down to single bits.
-void transposeBits(std::uint64_t a[64]) {
-  std::uint64_t mask = 0x00000000FFFFFFFFull;
-  for (int j = 32; j != 0; j >>= 1, mask ^= mask << j) {
-    for (int k = 0; k < 64; k = ((k | j) + 1) & ~j) {
-      const std::uint64_t t = ((a[k] >> j) ^ a[k | j]) & mask;
-      a[k | j] ^= t;
-      a[k] ^= t << j;
-    }
-  }
-}
-
 // Gives every bit row its lower bits, the transpose of the upper ones that its own rows set: block
 // (r, c) of 64 x 64 bits, above the diagonal, is ORed transposed into block (c, r). Each thread writes the
 // lower blocks of its own block rows and reads only upper blocks, which no thread writes here.
 void mirrorUpperBits(NeighbourBits& bits, int active, int num_threads) {
+  static const kernels::TransposeBits transposeBits = kernels::activeKernels().transpose_bits.run;
   const int blocks = (active + 63) / 64;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(num_threads)
   for (int c = 0; c < blocks; ++c) {

@@ -3,6 +3,7 @@
 // others are skipped, and say so).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -140,6 +141,24 @@ TEST_P(KernelSets, CommonCountsArePopcountsOfTheAnd) {
   }
 }
 
+TEST_P(KernelSets, BitTransposeSwapsRowsAndColumns) {
+  std::mt19937_64 rng(5);
+  for (int block = 0; block < 50; ++block) {
+    std::uint64_t original[64], expected[64], actual[64];
+    for (int r = 0; r < 64; ++r) original[r] = block == 0 ? (std::uint64_t(1) << r) | 1u : rng() & rng();
+    std::copy(original, original + 64, expected);
+    std::copy(original, original + 64, actual);
+    reference().transpose_bits.run(expected);
+    row().transpose_bits.run(actual);
+    for (int r = 0; r < 64; ++r) {
+      ASSERT_EQ(actual[r], expected[r]) << "block " << block << " row " << r;
+      for (int c = 0; c < 64; ++c)
+        ASSERT_EQ((expected[r] >> c) & 1u, (original[c] >> r) & 1u)
+            << "block " << block << " (" << r << ", " << c << ")";
+    }
+  }
+}
+
 // Descriptors packed as DescriptorIndex::Packed lays them out: tiles of kBins x kLanes floats, +inf in the
 // padding, with the squared norms and each slot's descriptor.
 struct PackedDescriptors {
@@ -257,8 +276,9 @@ INSTANTIATE_TEST_SUITE_P(EveryRow, KernelSets, ::testing::ValuesIn(kAllKernelSet
 TEST(KernelTable, EachVariantIsWrittenForItsSetOrANarrowerOne) {
   for (const KernelSet set : kAllKernelSets) {
     const KernelTable& row = kernelTable(set);
-    for (const KernelSet written_for : {row.pair_test.written_for, row.common_count.written_for,
-                                        row.common_counts4.written_for, row.descriptor_scan.written_for}) {
+    for (const KernelSet written_for :
+         {row.pair_test.written_for, row.common_count.written_for, row.common_counts4.written_for,
+          row.transpose_bits.written_for, row.descriptor_scan.written_for}) {
       EXPECT_LE(static_cast<int>(written_for), static_cast<int>(set)) << kernelSetName(set);
     }
   }
@@ -270,6 +290,7 @@ TEST(KernelTable, TheActiveSetRunsHereAndIsNamedInTheLogLine) {
   EXPECT_EQ(line.rfind(kernelSetName(activeKernelSet()), 0), 0u) << line;
   EXPECT_NE(line.find("pair test"), std::string::npos) << line;
   EXPECT_NE(line.find("common-neighbour count"), std::string::npos) << line;
+  EXPECT_NE(line.find("bit transpose"), std::string::npos) << line;
   EXPECT_NE(line.find("descriptor scan"), std::string::npos) << line;
 }
 

@@ -22,9 +22,9 @@ MacResult registerCorrespondences(const CorrespondenceSet& correspondences, cons
                                   const StopFlag* stop = nullptr, const PoseWitness* witness = nullptr);
 
 // The SIMD kernels this process runs, for logs: the instruction set and each kernel's variant, e.g.
-// "avx512 (pair test avx2, common-neighbour count avx512, descriptor scan avx2)". The widest set the CPU
-// has, narrowed by the environment variable MAC_REGISTRATION_KERNELS ("avx2" or "portable"); every set
-// gives the same results.
+// "avx2 (pair test avx2, common-neighbour count avx2, bit transpose portable, descriptor scan avx2)". The
+// widest set the CPU has, narrowed by the environment variable MAC_REGISTRATION_KERNELS ("avx2" or
+// "portable"); every set gives the same results.
 std::string kernelsInUse();
 
 }  // namespace mac_registration

@@ -99,6 +99,17 @@ void recheckForColumns(const ScanState& s, int k, const float* t, float* cd, int
   }
 }
 
+// exactSquaredDistance for the 16 lanes of a tile at once: the same operations lane by lane.
+__attribute__((target("avx512f"), optimize("fp-contract=off"), noinline)) __m512 exactSquaredDistances16(
+    const float* query, const float* tile) {
+  __m512 sum = _mm512_setzero_ps();
+  for (int b = 0; b < kBins; ++b) {
+    const __m512 diff = _mm512_sub_ps(_mm512_set1_ps(query[b]), _mm512_load_ps(tile + b * kLanes));
+    sum = _mm512_add_ps(sum, _mm512_mul_ps(diff, diff));
+  }
+  return sum;
+}
+
 // exactSquaredDistance for the 16 lanes of a tile at once, as two halves of 8: the same operations lane by
 // lane.
 __attribute__((target("avx2"), optimize("fp-contract=off"), noinline)) void exactSquaredDistances16Avx2(
@@ -127,9 +138,8 @@ __attribute__((target("avx2"))) inline int lessMask16(__m256 a_low, __m256 a_hig
 // The distances are screened in the dot-product form (one fused multiply-add a bin: a third of the direct
 // sum's operations), and every candidate that could be closer than the best so far, within the form's
 // rounding bound, is recomputed by the direct sum, the only distance ever kept: the results are the direct
-// sum's. A tile's 16 lanes as two halves of 8; the dot products of one half for the 8 queries at a time
-// (16 accumulators would not fit the 16 registers). An AVX-512 twin (16 lanes a register) was no faster:
-// doc/decisions/kernel-layer.md.
+// sum's. A tile's 16 lanes as two halves of 8 (the AVX-512 variant below has them in one register); the dot
+// products of one half for the 8 queries at a time (16 accumulators would not fit the 16 registers).
 __attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const float* packed,
                                                        int tile_begin, int tile_end, int distinct_queries) {
   for (int tile = tile_begin; tile < tile_end; ++tile) {
@@ -179,6 +189,59 @@ __attribute__((target("avx2,fma"))) void scanTilesAvx2(const ScanState& s, const
           continue;
         }
         recheckForColumns(s, k, t, cd, cq, maybe);
+      }
+    }
+  }
+}
+
+// The AVX2 variant's screen and rechecks with a tile's 16 lanes in one register.
+__attribute__((target("avx512f"))) void scanTilesAvx512(const ScanState& s, const float* packed,
+                                                        int tile_begin, int tile_end, int distinct_queries) {
+  for (int tile = tile_begin; tile < tile_end; ++tile) {
+    const float* t = packed + std::size_t(tile) * kBins * kLanes;
+    __m512 dot[kQueryGroup];
+    for (int k = 0; k < kQueryGroup; ++k) dot[k] = _mm512_setzero_ps();
+    for (int b = 0; b < kBins; ++b) {
+      const __m512 row = _mm512_load_ps(t + b * kLanes);
+      for (int k = 0; k < kQueryGroup; ++k)
+        dot[k] = _mm512_fmadd_ps(_mm512_set1_ps(s.query[k][b]), row, dot[k]);
+    }
+    const __m512 target_norms = _mm512_load_ps(s.target_norms + std::size_t(tile) * kLanes);
+    __m512 fast[kQueryGroup], slack[kQueryGroup];
+    for (int k = 0; k < kQueryGroup; ++k) {
+      const __m512 norms = _mm512_add_ps(_mm512_set1_ps(s.query_norm[k]), target_norms);
+      fast[k] = _mm512_fmadd_ps(_mm512_set1_ps(-2.0f), dot[k], norms);
+      slack[k] = _mm512_mul_ps(_mm512_set1_ps(kFastFormSlack), norms);  // +inf / NaN in padding lanes
+    }
+    for (int k = 0; k < distinct_queries; ++k) {
+      const __m512 limit = _mm512_add_ps(_mm512_set1_ps(s.best[k]->second), slack[k]);
+      __mmask16 maybe = _mm512_cmp_ps_mask(fast[k], limit, _CMP_LT_OQ);
+      if (__builtin_popcount(maybe) > kScalarRechecks) {  // the first tiles: all 16 at once
+        alignas(64) float d2[kLanes];
+        _mm512_store_ps(d2, exactSquaredDistances16(s.query[k], t));
+        offerLanes(d2, s.target_of_slot + tile * kLanes, kLanes, *s.best[k]);  // padding: +inf, never taken
+        continue;
+      }
+      recheckForBest(s, k, t, tile, maybe);
+    }
+    if (s.column_d2) {
+      float* cd = s.column_d2 + std::size_t(tile) * kLanes;
+      int* cq = s.column_query + std::size_t(tile) * kLanes;
+      __m512 column = _mm512_loadu_ps(cd);          // reloaded only after a lane changed
+      for (int k = 0; k < distinct_queries; ++k) {  // ascending query index: strict < keeps the lowest
+        __mmask16 maybe = _mm512_cmp_ps_mask(fast[k], _mm512_add_ps(column, slack[k]), _CMP_LT_OQ);
+        if (maybe == 0) continue;
+        if (__builtin_popcount(maybe) > kScalarRechecks) {
+          const __m512 d2 = exactSquaredDistances16(s.query[k], t);
+          const __mmask16 closer = _mm512_cmp_ps_mask(d2, column, _CMP_LT_OQ);
+          column = _mm512_mask_mov_ps(column, closer, d2);
+          _mm512_storeu_ps(cd, column);
+          _mm512_storeu_si512(
+              cq, _mm512_mask_mov_epi32(_mm512_loadu_si512(cq), closer, _mm512_set1_epi32(s.query_index[k])));
+          continue;
+        }
+        recheckForColumns(s, k, t, cd, cq, maybe);
+        column = _mm512_loadu_ps(cd);
       }
     }
   }

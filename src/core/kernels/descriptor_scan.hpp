@@ -56,6 +56,8 @@ void scanTilesPortable(const ScanState& s, const float* packed, int tile_begin, 
 #if MAC_REGISTRATION_X86
 void scanTilesAvx2(const ScanState& s, const float* packed, int tile_begin, int tile_end,
                    int distinct_queries);
+void scanTilesAvx512(const ScanState& s, const float* packed, int tile_begin, int tile_end,
+                     int distinct_queries);
 #endif
 
 }  // namespace kernels

@@ -73,8 +73,7 @@ __attribute__((target("avx2"), optimize("fp-contract=off"))) inline __m256 dista
 
 // Eight pairs at a time, the passing ones packed in registers by a table of permutations (AVX2 has no
 // compress) and stored whole (8 entries, past the found ones too). The same IEEE operations as
-// pairResidualsSquared. An AVX-512 twin (sixteen pairs, compressed by the test's mask) was no faster:
-// doc/decisions/kernel-layer.md.
+// pairResidualsSquared.
 __attribute__((target("avx2,popcnt"), optimize("fp-contract=off"))) int pairTestAvx2(
     const float* sx, const float* sy, const float* sz, const float* tx, const float* ty, const float* tz,
     int i, int n, float max_d2, float*, int* candidates, float* candidate_d2) {
@@ -104,6 +103,54 @@ __attribute__((target("avx2,popcnt"), optimize("fp-contract=off"))) int pairTest
     _mm256_storeu_ps(candidate_d2 + found, _mm256_permutevar8x32_ps(d2, lanes));
     found += __builtin_popcount(static_cast<unsigned>(mask));
     index = _mm256_add_epi32(index, step);
+  }
+  return found;
+}
+
+namespace {
+
+// |p_i - p_j| for the valid ones of the sixteen points from j, as pairResidualsSquared computes it.
+__attribute__((target("avx512f"), optimize("fp-contract=off"))) inline __m512 distances16(
+    const float* x, const float* y, const float* z, int j, __mmask16 valid, __m512 xi, __m512 yi, __m512 zi) {
+  const __m512 dx = _mm512_sub_ps(xi, _mm512_maskz_loadu_ps(valid, x + j));
+  const __m512 dy = _mm512_sub_ps(yi, _mm512_maskz_loadu_ps(valid, y + j));
+  const __m512 dz = _mm512_sub_ps(zi, _mm512_maskz_loadu_ps(valid, z + j));
+  return _mm512_maskz_sqrt_ps(
+      valid,
+      _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz)));
+}
+
+}  // namespace
+
+// Sixteen pairs at a time, the test's mask compressing the passing ones straight into place. The same IEEE
+// operations in the same order as pairResidualsSquared, so the same pairs and d^2 bit for bit: AVX-512 has
+// FMA, and contracting a multiply and an add into one would round differently.
+__attribute__((target("avx512f,popcnt"), optimize("fp-contract=off"))) int pairTestAvx512(
+    const float* sx, const float* sy, const float* sz, const float* tx, const float* ty, const float* tz,
+    int i, int n, float max_d2, float*, int* candidates, float* candidate_d2) {
+  const __m512 six = _mm512_set1_ps(sx[i]), siy = _mm512_set1_ps(sy[i]), siz = _mm512_set1_ps(sz[i]);
+  const __m512 tix = _mm512_set1_ps(tx[i]), tiy = _mm512_set1_ps(ty[i]), tiz = _mm512_set1_ps(tz[i]);
+  const __m512 bound = _mm512_set1_ps(max_d2);
+  const __m512i step = _mm512_set1_epi32(16);
+  // The loads start on the 16-float boundary at or below i + 1 (the arrays are 64-byte aligned), with the
+  // pairs below i + 1 masked off: a load across two cache lines would cost two.
+  const int start = (i + 1) & ~15;
+  __m512i index = _mm512_add_epi32(_mm512_set1_epi32(start),
+                                   _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+  int found = 0;
+  for (int j = start; j < n; j += 16) {
+    __mmask16 valid = n - j >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n - j)) - 1u);
+    if (j <= i) valid &= __mmask16(~((1u << (i + 1 - j)) - 1u));
+    const __m512 difference = _mm512_sub_ps(distances16(sx, sy, sz, j, valid, six, siy, siz),
+                                            distances16(tx, ty, tz, j, valid, tix, tiy, tiz));
+    const __m512 d2 = _mm512_mul_ps(difference, difference);
+    const __mmask16 pass = _mm512_mask_cmp_ps_mask(valid, d2, bound, _CMP_LE_OQ);
+    // Compressed in registers and stored whole (16 entries, past the found ones too): a compressing store
+    // to memory costs several times more.
+    _mm512_storeu_si512(candidates + found, _mm512_maskz_compress_epi32(pass, index));
+    _mm512_storeu_ps(candidate_d2 + found, _mm512_maskz_compress_ps(pass, d2));
+    found += __builtin_popcount(pass);
+    index = _mm512_add_epi32(index, step);
   }
   return found;
 }

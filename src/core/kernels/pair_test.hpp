@@ -28,6 +28,9 @@ int pairTestPortable(const float* sx, const float* sy, const float* sz, const fl
 int pairTestAvx2(const float* sx, const float* sy, const float* sz, const float* tx, const float* ty,
                  const float* tz, int i, int n, float max_d2, float* scratch, int* candidates,
                  float* candidate_d2);
+int pairTestAvx512(const float* sx, const float* sy, const float* sz, const float* tx, const float* ty,
+                   const float* tz, int i, int n, float max_d2, float* scratch, int* candidates,
+                   float* candidate_d2);
 #endif
 
 }  // namespace kernels
