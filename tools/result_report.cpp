@@ -31,6 +31,9 @@ void printVerification(std::ostream& out, const MacResult& r) {
   if (!std::isnan(s.chance_inliers))
     out << std::setprecision(1) << "; inliers by chance " << s.chance_inliers << " (significance "
         << s.chance_significance << " nats)";
+  if (!std::isnan(s.inlier_planarity))
+    out << std::setprecision(3) << "; inlier planarity " << s.inlier_planarity << ", linearity "
+        << s.inlier_linearity;
   if (!std::isnan(s.aligned_overlap))
     out << "; aligned overlap " << shareText(s.aligned_overlap) << ", seen on surface "
         << shareText(s.seen_on_surface) << ", in free space " << shareText(s.free_space_violation);

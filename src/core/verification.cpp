@@ -8,9 +8,12 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include <omp.h>
+
+#include <Eigen/Eigenvalues>
 
 #include "mac_registration/core/pose_error.hpp"
 #include "neighbour_grid.hpp"
@@ -156,6 +159,32 @@ double chanceInliers(const CorrespondenceSet& c, const Eigen::Isometry3d& T, dou
   return double(pairs) / double(n);
 }
 
+namespace {
+
+// l3 / l2 and l2 / l1 of the covariance of the explained correspondences' source points (0 / 0 for fewer
+// than three).
+std::pair<double, double> inlierShape(const CorrespondenceSet& c, const std::vector<char>& explained) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < explained.size(); ++i) {
+    if (!explained[i]) continue;
+    const Eigen::Vector3d p = c.source_points.col(Eigen::Index(i));
+    sum += p;
+    outer += p * p.transpose();
+    ++count;
+  }
+  if (count < 3) return {0.0, 0.0};
+  const Eigen::Vector3d mean = sum / double(count);
+  const Eigen::Matrix3d covariance = outer / double(count) - mean * mean.transpose();
+  const Eigen::Vector3d l =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance).eigenvalues();  // ascending
+  const auto ratio = [](double a, double b) { return b > 0.0 ? std::max(0.0, a) / b : 0.0; };
+  return {ratio(l[0], l[1]), ratio(l[1], l[2])};
+}
+
+}  // namespace
+
 double chanceSignificance(std::size_t inliers, double chance_inliers, std::size_t hypotheses) {
   return -std::log(double(std::max<std::size_t>(hypotheses, 1))) - logPoissonTail(inliers, chance_inliers);
 }
@@ -222,6 +251,7 @@ void measureCorrespondenceSignals(const CorrespondenceSet& c, const std::vector<
     signals.rival_displacement = rmsDisplacement(best, rival, moments);
   }
 
+  std::tie(signals.inlier_planarity, signals.inlier_linearity) = inlierShape(c, explained);
   signals.chance_inliers = chanceInliers(c, best, tau, params.num_threads);
   signals.chance_significance =
       chanceSignificance(result.counters.inliers, signals.chance_inliers, hypotheses.size());
@@ -359,6 +389,8 @@ void takeMeasured(const VerificationSignals& from, VerificationSignals& into) {
   take(from.rival_displacement, into.rival_displacement);
   take(from.chance_inliers, into.chance_inliers);
   take(from.chance_significance, into.chance_significance);
+  take(from.inlier_planarity, into.inlier_planarity);
+  take(from.inlier_linearity, into.inlier_linearity);
   take(from.aligned_overlap, into.aligned_overlap);
   take(from.seen_on_surface, into.seen_on_surface);
   take(from.surface_agreement, into.surface_agreement);

@@ -304,6 +304,8 @@ void fillVerification(const MacResult& r, mac_registration::RegistrationResult& 
   msg.surface_agreement = s.surface_agreement;
   msg.chance_inliers = s.chance_inliers;
   msg.chance_significance = s.chance_significance;
+  msg.inlier_planarity = s.inlier_planarity;
+  msg.inlier_linearity = s.inlier_linearity;
   msg.alternatives.clear();
   for (const PoseAlternative& a : r.alternatives) {
     mac_registration::CompetingPose alternative;

@@ -95,6 +95,29 @@ TEST(RivalRatio, ALoneConsensusStandsAlone) {
   EXPECT_TRUE(std::isnan(result.verification.free_space_violation));
 }
 
+TEST(InlierShape, APlanarConsensusIsMeasuredAsOne) {
+  // The bunny's inliers spread in three dimensions.
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.2, 7));
+  const MacResult spread = registerCorrespondences(problem.correspondences, test::roomScaleParams());
+  ASSERT_TRUE(spread.success) << spread.message;
+  EXPECT_GT(spread.verification.inlier_planarity, 0.05);
+  EXPECT_GT(spread.verification.inlier_linearity, 0.05);
+  // The same correspondences with the source flattened onto z = 0 and the targets moved with it: the
+  // inliers lie on one plane, and their shape says so.
+  CorrespondenceSet flat = problem.correspondences;
+  const Eigen::Isometry3d& T = problem.T_target_source;
+  for (Eigen::Index k = 0; k < flat.source_points.cols(); ++k) {
+    const Eigen::Vector3d moved = T * flat.source_points.col(k);
+    const bool inlier = (moved - flat.target_points.col(k)).norm() < 0.05;
+    flat.source_points(2, k) = 0.0;
+    if (inlier) flat.target_points.col(k) = T * flat.source_points.col(k);
+  }
+  const MacResult planar = registerCorrespondences(flat, test::roomScaleParams());
+  ASSERT_TRUE(std::isfinite(planar.verification.inlier_planarity)) << planar.message;
+  EXPECT_LT(planar.verification.inlier_planarity, 1e-6);
+  EXPECT_GT(planar.verification.inlier_linearity, 0.05);
+}
+
 TEST(RivalRatio, TwoEqualConsensusSetsAreAmbiguousAndBothPosesAreReported) {
   // 50 inliers under each of two poses (fewer than cliques.max_degeneracy: the search sees both).
   const TwoPoses scene = twoPoses(250, 0.2, 250, 0.2);

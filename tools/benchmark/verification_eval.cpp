@@ -226,7 +226,7 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
   out << "name,subset,kind,answerable,has_truth,registered,correct,success,status,confidence,re_deg,te_m,"
          "correspondences,inlier_ratio,inliers,rival_ratio,rival_rotation_deg,rival_displacement_m,"
          "aligned_overlap,seen_on_surface,free_space_violation,surface_agreement,chance_inliers,"
-         "chance_significance,alternatives,alternative_score_ratio,"
+         "chance_significance,inlier_planarity,inlier_linearity,alternatives,alternative_score_ratio,"
          "alternative_rotation_deg,alternative_re_deg,alternative_te_m,front_end_ms,core_ms,verification_ms,"
          "message\n";
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -243,8 +243,9 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
         << c.correspondences << "," << c.inlier_ratio << "," << r.counters.inliers << "," << s.rival_ratio
         << "," << s.rival_rotation_deg << "," << s.rival_displacement << "," << s.aligned_overlap << ","
         << s.seen_on_surface << "," << s.free_space_violation << "," << s.surface_agreement << ","
-        << s.chance_inliers << "," << s.chance_significance << "," << r.alternatives.size() << ","
-        << (alternative ? a.score_ratio : nan) << "," << (alternative ? a.rotation_deg : nan) << ","
+        << s.chance_inliers << "," << s.chance_significance << "," << s.inlier_planarity << ","
+        << s.inlier_linearity << "," << r.alternatives.size() << "," << (alternative ? a.score_ratio : nan)
+        << "," << (alternative ? a.rotation_deg : nan) << ","
         << (alternative && c.has_truth ? rotationErrorDeg(a.T_target_source, c.truth) : nan) << ","
         << (alternative && c.has_truth ? translationError(a.T_target_source, c.truth) : nan) << ","
         << c.front_end_ms << "," << r.times.total_ms - r.times.verification_ms << ","

@@ -108,6 +108,12 @@ struct VerificationSignals {
   // reported one by chance (Poisson tail at chance_inliers, times the hypotheses scored): below ~0 a
   // consensus this large is what unrelated matches give.
   double chance_significance = kNotMeasured;
+  // The shape of the inliers' source points, from the eigenvalues l1 >= l2 >= l3 of their covariance:
+  // planarity l3 / l2 near 0 is a consensus on one plane (one wall matched onto another supports a turned
+  // or slid pose as well as the right one), linearity l2 / l1 near 0 one along a line. Measured, not yet
+  // weighed in the decision.
+  double inlier_planarity = kNotMeasured;
+  double inlier_linearity = kNotMeasured;
   // From the clouds (front end only), on the keypoints, at tau = evaluation.inlier_threshold.
   double aligned_overlap = kNotMeasured;  // share of the aligned source within tau of the target
   // Of the aligned source keypoints in directions the target's sensor saw (its viewpoint), the share on
