@@ -50,6 +50,7 @@ TEST(GtLog, PairsOnlyForFragmentsThatExist) {
   ASSERT_EQ(pairs.size(), 1u);
   EXPECT_EQ(pairs[0].name, "kitchen 1->0");
   EXPECT_EQ(pairs[0].subset, "3DMatch");
+  EXPECT_EQ(pairs[0].scene, "kitchen");
   EXPECT_EQ(pairs[0].source_path, scene + "/cloud_bin_1.pcd");
   EXPECT_EQ(pairs[0].target_path, scene + "/cloud_bin_0.ply");
   EXPECT_EQ(missing, std::vector<std::string>{"5->2"});
@@ -67,6 +68,7 @@ TEST(PairsTable, ReadsTheShippedLayoutWithPathsRelativeToTheTable) {
   ASSERT_EQ(pairs.size(), 1u);
   EXPECT_EQ(pairs[0].name, "kitchen 7->0");
   EXPECT_EQ(pairs[0].subset, "3DLoMatch");
+  EXPECT_EQ(pairs[0].scene, "kitchen");
   EXPECT_EQ(pairs[0].source_path, dir.file("frag/cloud_bin_7.pcd"));
   EXPECT_DOUBLE_EQ(pairs[0].T_target_source_gt.translation().x(), 0.5);
   EXPECT_TRUE(pairs[0].hasClouds());

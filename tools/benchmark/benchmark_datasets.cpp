@@ -100,6 +100,7 @@ std::vector<BenchmarkPair> pairsFromGtLog(const std::string& fragment_dir, const
     }
     pair.name = scene + " " + label;
     pair.subset = subset;
+    pair.scene = scene;
     pair.T_target_source_gt = record.T_target_source;
     pairs.push_back(pair);
   }
@@ -142,7 +143,8 @@ std::vector<BenchmarkPair> readPairsTable(const std::string& path) {
     const std::string label = !field("name").empty()   ? field("name")
                               : i.empty() || j.empty() ? "row " + std::to_string(number)
                                                        : j + "->" + i;
-    pair.name = (field("scene").empty() ? "" : field("scene") + " ") + label;
+    pair.scene = field("scene");
+    pair.name = (pair.scene.empty() ? "" : pair.scene + " ") + label;
     pairs.push_back(pair);
   }
   if (column.empty()) throw std::runtime_error("'" + path + "' has no header row");

@@ -8,8 +8,9 @@ namespace mac_registration {
 
 // One registration problem of a benchmark with its ground truth: two clouds, or a correspondence set.
 struct BenchmarkPair {
-  std::string name;                      // for tables and progress lines, e.g. "7-scenes-redkitchen 1->0"
-  std::string subset;                    // rows of the table are per subset, e.g. "3DMatch", "3DLoMatch"
+  std::string name;    // for tables and progress lines, e.g. "7-scenes-redkitchen 1->0"
+  std::string subset;  // rows of the table are per subset, e.g. "3DMatch", "3DLoMatch"
+  std::string scene;   // where the clouds were taken, e.g. "7-scenes-redkitchen"; may be empty
   std::string source_path, target_path;  // clouds (both set), or
   std::string correspondences_path;      // a correspondence file ("xs ys zs xt yt zt" a line)
   Eigen::Isometry3d T_target_source_gt = Eigen::Isometry3d::Identity();

@@ -58,6 +58,7 @@ MethodOutcome outcomeOf(const std::string& method, const MacResult& result, cons
     m.translation_error = translationError(result.T_target_source, truth);
   }
   m.inliers = result.counters.inliers;
+  m.confidence = result.confidence;
   m.times = result.times;
   return judge(m, criterion);
 }
@@ -140,6 +141,7 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
   PairOutcome outcome;
   outcome.name = pair.name;
   outcome.subset = pair.subset;
+  outcome.scene = pair.scene;
   PreparedPair prepared;
   resetPeakMemory();
   try {

@@ -125,8 +125,8 @@ std::vector<StageShare> stageShares(const StageTimes& f, const StageTimes& s, do
 
 MethodOutcome judge(MethodOutcome outcome, const SuccessCriterion& criterion) {
   // NaN errors (no transform) compare false, so they are never accepted.
-  outcome.recalled =
-      outcome.registered && criterion.accepts(outcome.rotation_error_deg, outcome.translation_error);
+  outcome.within_criterion = criterion.accepts(outcome.rotation_error_deg, outcome.translation_error);
+  outcome.recalled = outcome.registered && outcome.within_criterion;
   return outcome;
 }
 
@@ -269,8 +269,10 @@ void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outc
 }
 
 void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcomes) {
-  out << "pair,subset,method,correspondences,inlier_ratio,registered,status,rotation_error_deg,"
-         "translation_error_m,recalled,inliers,resolution_ms,downsample_ms,normals_ms,fpfh_ms,matching_ms,"
+  out << "pair,scene,subset,method,correspondences,inlier_ratio,registered,status,confidence,rotation_error_"
+         "deg,"
+         "translation_error_m,within_criterion,recalled,inliers,resolution_ms,downsample_ms,normals_ms,fpfh_"
+         "ms,matching_ms,"
          "graph_ms,second_order_ms,clique_search_ms,selection_ms,hypotheses_ms,evaluation_ms,refinement_ms,"
          "verification_ms,method_total_ms,source_points,target_points,total_ms,peak_mb";
   for (const StageShare& stage : stageShares({}, {}, 0.0)) out << "," << stage.name << "_share_pct";
@@ -284,12 +286,12 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
   for (const PairOutcome& p : outcomes) {
     const StageTimes& f = p.front_end;
     const auto prefix = [&](const std::string& method) {
-      out << quoted(p.name) << "," << quoted(p.subset) << "," << method << "," << p.correspondences << ","
-          << p.inlier_ratio << ",";
+      out << quoted(p.name) << "," << quoted(p.scene) << "," << quoted(p.subset) << "," << method << ","
+          << p.correspondences << "," << p.inlier_ratio << ",";
     };
     if (p.methods.empty()) {
       prefix("");
-      out << "0,,,,0,0," << f.resolution_ms << "," << f.downsample_ms << "," << f.normals_ms << ","
+      out << "0,,,,,0,0,0," << f.resolution_ms << "," << f.downsample_ms << "," << f.normals_ms << ","
           << f.features_ms << "," << f.matching_ms << ",0,0,0,0,0,0,0,0,0," << p.source_points << ","
           << p.target_points << "," << f.frontEndMs() << ",nan";
       for (const StageShare& stage : stageShares(f, {}, f.frontEndMs())) out << "," << stage.percent;
@@ -301,13 +303,13 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
       const StageTimes& f = p.frontEndOf(m);
       const double total = f.frontEndMs() + s.total_ms;
       prefix(m.method);
-      out << m.registered << "," << quoted(m.status) << "," << m.rotation_error_deg << ","
-          << m.translation_error << "," << m.recalled << "," << m.inliers << "," << f.resolution_ms << ","
-          << f.downsample_ms << "," << f.normals_ms << "," << f.features_ms << "," << f.matching_ms << ","
-          << s.graph_ms << "," << s.second_order_ms << "," << s.clique_search_ms << "," << s.selection_ms
-          << "," << s.hypotheses_ms << "," << s.evaluation_ms << "," << s.refinement_ms << ","
-          << s.verification_ms << "," << s.total_ms << "," << p.source_points << "," << p.target_points << ","
-          << total << "," << m.peak_mb;
+      out << m.registered << "," << quoted(m.status) << "," << m.confidence << "," << m.rotation_error_deg
+          << "," << m.translation_error << "," << m.within_criterion << "," << m.recalled << "," << m.inliers
+          << "," << f.resolution_ms << "," << f.downsample_ms << "," << f.normals_ms << "," << f.features_ms
+          << "," << f.matching_ms << "," << s.graph_ms << "," << s.second_order_ms << ","
+          << s.clique_search_ms << "," << s.selection_ms << "," << s.hypotheses_ms << "," << s.evaluation_ms
+          << "," << s.refinement_ms << "," << s.verification_ms << "," << s.total_ms << "," << p.source_points
+          << "," << p.target_points << "," << total << "," << m.peak_mb;
       for (const StageShare& stage : stageShares(f, s, total)) out << "," << stage.percent;
       out << "," << quoted(p.error) << "\n";
     }

@@ -27,7 +27,11 @@ struct MethodOutcome {
   std::string status;       // its status, e.g. "success", "too few inliers"
   double rotation_error_deg = std::numeric_limits<double>::quiet_NaN();  // NaN without a transform
   double translation_error = std::numeric_limits<double>::quiet_NaN();   // [m]
-  bool recalled = false;    // registered and within the criterion
+  bool within_criterion = false;  // its transform is within the criterion, whether reported or not
+  bool recalled = false;          // registered and within the criterion
+  // The verification's confidence in its pose (MAC's result; NaN for the baselines): what a run at another
+  // verification.min_confidence would have compared with it.
+  double confidence = std::numeric_limits<double>::quiet_NaN();
   std::size_t inliers = 0;  // of its own transform, at its own threshold
   StageTimes times;         // per stage for MAC, total only for the baselines
   // A peer with its own front end (Open3D on the clouds) sets its stages here; unset: the pair's, ours.
@@ -38,7 +42,7 @@ struct MethodOutcome {
 };
 
 struct PairOutcome {
-  std::string name, subset;
+  std::string name, subset, scene;
   std::string error;  // set when the pair could not be run (e.g. unreadable cloud): every method missed it
   std::size_t correspondences = 0;
   // Share of the correspondences within tau of their target under the ground truth.
@@ -69,7 +73,8 @@ double median(std::vector<double> values);
 // baselines' whole method time), never negative.
 std::vector<StageShare> stageShares(const StageTimes& front_end, const StageTimes& method, double total_ms);
 
-// The method's outcome for a pair, after the criterion: recalled = registered && criterion accepts.
+// The method's outcome for a pair, after the criterion: within_criterion = the criterion accepts its errors,
+// recalled = registered && within_criterion.
 MethodOutcome judge(MethodOutcome outcome, const SuccessCriterion& criterion);
 
 // One line of the paper-style table: a subset (or "all") and a method.
