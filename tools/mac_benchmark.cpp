@@ -7,6 +7,12 @@
 //   mac_benchmark pairs TABLE.tsv [dataset options]          (e.g. 3dmatch/pairs_available.tsv)
 //   mac_benchmark gtlog FRAGMENT_DIR GT_LOG [--subset-name NAME] [dataset options]   (3DMatch layout)
 //   mac_benchmark sets FOLDER|LIST [dataset options]          (correspondence sets with ground truth)
+//   mac_benchmark threedmatch FRAGMENTS_ROOT BENCHMARKS_ROOT [--scenes a,b,...] [--benchmarks 3DMatch,...]
+//                             [--thresholds 0,0.1,...] [dataset options]   (the whole 3DMatch and 3DLoMatch
+//                             benchmarks: FRAGMENTS_ROOT/<scene>/cloud_bin_<k>.ply and
+//                             BENCHMARKS_ROOT/<benchmark>/<scene>/gt.log; every scene with both, the others
+//                             named and skipped; the MAC paper's table and the successes at each
+//                             verification.min_confidence of --thresholds)
 //   mac_benchmark verify [TABLE.tsv|FOLDER|LIST]... [--derived] [--synthetic] [--thresholds 0,0.1,...]
 //                        [dataset options]   (the labelled evaluation of the verification: pairs with
 //                        ground truth or "none"; --derived adds each pair's correspondences without their
@@ -32,6 +38,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -43,6 +50,7 @@
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "open3d_peer.hpp"
+#include "paper_table.hpp"
 #include "synthetic.hpp"
 #include "verification_eval.hpp"
 
@@ -62,6 +70,9 @@ struct Options {
   BenchmarkSettings dataset;  // its mac and features are filled from `config`
   std::string subset_filter, subset_name;
   std::size_t limit = 0;
+  // threedmatch mode
+  std::vector<std::string> scenes;  // empty: every scene with fragments and a gt.log
+  std::vector<std::string> benchmarks{"3DMatch", "3DLoMatch"};
   // verify mode
   bool derived = false, synthetic = false;
   std::vector<double> thresholds{0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9};
@@ -264,6 +275,10 @@ Options parseOptions(int argc, char** argv) {
       o.subset_name = value();
     else if (arg == "--limit")
       o.limit = std::stoul(value());
+    else if (arg == "--scenes")
+      o.scenes = split(value());
+    else if (arg == "--benchmarks")
+      o.benchmarks = split(value());
     else if (arg == "--derived")
       o.derived = true;
     else if (arg == "--synthetic")
@@ -454,7 +469,10 @@ void printProgress(std::ostream& out, std::size_t k, std::size_t count, const Pa
   out << std::endl;
 }
 
-int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& source) {
+// With `paper_table`, also the MAC paper's table per benchmark and scene, and the successes at each of
+// --thresholds.
+int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& source,
+               bool paper_table = false) {
   if (!o.subset_filter.empty()) {
     pairs.erase(std::remove_if(pairs.begin(), pairs.end(),
                                [&](const BenchmarkPair& p) { return p.subset != o.subset_filter; }),
@@ -485,6 +503,17 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
   std::cout << "\n";
   printSummary(std::cout, summarize(outcomes), o.dataset.criterion);
   printPeerComparison(std::cout, outcomes, "MAC", "Open3D");
+  if (paper_table) {
+    const GrossError gross;
+    const VerificationParams& verification = o.config.mac.verification;
+    // Without the verification a success has no confidence to re-threshold.
+    const std::vector<ThresholdRow> thresholds = verification.enabled
+                                                     ? thresholdRows(outcomes, "MAC", o.thresholds, gross)
+                                                     : std::vector<ThresholdRow>{};
+    std::cout << "\n";
+    printPaperTable(std::cout, paperRows(outcomes, "MAC", gross, true), thresholds,
+                    verification.min_confidence, o.dataset.criterion, gross);
+  }
   if (errors > 0)
     std::cout << errors << " pairs could not be run (counted as misses; see the progress lines)\n";
   if (csv.is_open()) {
@@ -518,6 +547,56 @@ int runGtLog(const Options& o) {
               << o.positional[0] << "\n";
   }
   return runDataset(o, pairs, o.positional[1]);
+}
+
+// The pairs of every benchmark's scenes that have fragments: BENCHMARKS_ROOT/<benchmark>/<scene>/gt.log with
+// FRAGMENTS_ROOT/<scene>/. Says which scenes and pairs it leaves out, and why.
+int runThreeDMatch(const Options& o) {
+  namespace fs = std::filesystem;
+  if (o.positional.size() != 2)
+    throw std::invalid_argument("threedmatch needs FRAGMENTS_ROOT BENCHMARKS_ROOT");
+  const fs::path fragments = o.positional[0], benchmarks = o.positional[1];
+  std::set<std::string> unmatched(o.scenes.begin(), o.scenes.end());
+  std::vector<BenchmarkPair> pairs;
+  for (const std::string& benchmark : o.benchmarks) {
+    const fs::path folder = benchmarks / benchmark;
+    if (!fs::is_directory(folder))
+      throw std::invalid_argument("no benchmark folder '" + folder.string() + "'");
+    std::vector<std::string> scenes;
+    for (const auto& entry : fs::directory_iterator(folder)) {
+      const std::string scene = entry.path().filename().string();
+      if (fs::exists(entry.path() / "gt.log") &&
+          (o.scenes.empty() || std::find(o.scenes.begin(), o.scenes.end(), scene) != o.scenes.end()))
+        scenes.push_back(scene);
+    }
+    std::sort(scenes.begin(), scenes.end());  // directory order is the file system's
+    std::vector<std::string> run, without_fragments;
+    for (const std::string& scene : scenes) {
+      unmatched.erase(scene);
+      if (!fs::is_directory(fragments / scene)) {
+        without_fragments.push_back(scene);
+        continue;
+      }
+      std::vector<std::string> missing;
+      const std::vector<BenchmarkPair> scene_pairs = pairsFromGtLog(
+          (fragments / scene).string(), (folder / scene / "gt.log").string(), benchmark, missing);
+      if (!missing.empty())
+        std::cout << benchmark << " " << scene << ": skipped " << missing.size() << " of "
+                  << missing.size() + scene_pairs.size() << " pairs, a fragment missing (first " << missing[0]
+                  << ")\n";
+      pairs.insert(pairs.end(), scene_pairs.begin(), scene_pairs.end());
+      run.push_back(scene);
+    }
+    std::cout << benchmark << ": " << run.size() << " of " << scenes.size() << " scenes with a gt.log";
+    if (!without_fragments.empty()) {
+      std::cout << "; skipped, no fragments in " << fragments.string() << ":";
+      for (const std::string& scene : without_fragments) std::cout << " " << scene;
+    }
+    std::cout << "\n";
+  }
+  if (!unmatched.empty())
+    throw std::invalid_argument("--scenes: no gt.log of the benchmarks for '" + *unmatched.begin() + "'");
+  return runDataset(o, pairs, benchmarks.string(), true);
 }
 
 int runSets(const Options& o) {
@@ -601,6 +680,9 @@ int main(int argc, char** argv) {
       "  mac_benchmark pairs TABLE.tsv [dataset options]\n"
       "  mac_benchmark gtlog FRAGMENT_DIR GT_LOG [--subset-name NAME] [dataset options]\n"
       "  mac_benchmark sets FOLDER|LIST [dataset options]\n"
+      "  mac_benchmark threedmatch FRAGMENTS_ROOT BENCHMARKS_ROOT [--scenes a,b,...] [--benchmarks "
+      "3DMatch,...]\n"
+      "                            [--thresholds 0,0.1,...] [dataset options]\n"
       "  mac_benchmark verify [TABLE.tsv|FOLDER|LIST]... [--derived] [--synthetic] [--thresholds 0,0.1,...]\n"
       "                       [--no-cloud-verification] [dataset options]\n"
       "dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline "
@@ -633,6 +715,7 @@ int main(int argc, char** argv) {
     if (mode == "pairs") return runPairs(options);
     if (mode == "gtlog") return runGtLog(options);
     if (mode == "sets") return runSets(options);
+    if (mode == "threedmatch") return runThreeDMatch(options);
     if (mode == "verify") return runVerify(options, params_given);
     std::cerr << "mac_benchmark: unknown mode '" << mode << "'\n" << usage;
   } catch (const std::exception& e) {

@@ -1,13 +1,17 @@
-// mac_benchmark's per-stage shares and its Open3D peers, run as a user runs them: the shares of a real
-// run account for its total, and the Open3D script's report is parsed into the outcome of a real pair.
+// mac_benchmark's per-stage shares, its Open3D peers and its 3DMatch layout, run as a user runs them: the
+// shares of a real run account for its total, the Open3D script's report is parsed into the outcome of a
+// real pair, and the threedmatch mode finds the scenes it can run and names those it cannot.
 // The Open3D cases skip, saying so, only when the script cannot import open3d (python3-open3d).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "benchmark_table.hpp"
@@ -96,6 +100,28 @@ std::string tinyPairsTable(const TempDir& dir) {
   return dir.write("pairs.tsv", "name\tbenchmark\tsource_file\ttarget_file\tT\n4->0\ttiny\t" +
                                     demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd") + "\t" +
                                     demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd") + "\t" + T + "\n");
+}
+
+// The shipped pair in the 3DMatch layout: fragments/kitchen/cloud_bin_{0,4}.pcd; 3DMatch and 3DLoMatch
+// gt.logs of kitchen (3DLoMatch also lists 9 -> 0, whose fragment is absent), and of hotel, which has no
+// fragments. Returns the two roots.
+std::pair<std::string, std::string> tinyThreeDMatch(const TempDir& dir) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir.file("fragments/kitchen"));
+  fs::copy_file(demoDataPath("redkitchen_4_0/source_cloud_bin_4.pcd"),
+                dir.file("fragments/kitchen/cloud_bin_4.pcd"));
+  fs::copy_file(demoDataPath("redkitchen_4_0/target_cloud_bin_0.pcd"),
+                dir.file("fragments/kitchen/cloud_bin_0.pcd"));
+  std::ifstream gt(demoDataPath("redkitchen_4_0/T_target_source_gt.txt"));
+  const std::string record = "0 4 60\n" + std::string(std::istreambuf_iterator<char>(gt), {});
+  const std::string identity = "0 9 60\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";
+  for (const char* folder :
+       {"benchmarks/3DMatch/kitchen", "benchmarks/3DMatch/hotel", "benchmarks/3DLoMatch/kitchen"})
+    fs::create_directories(dir.file(folder));
+  dir.write("benchmarks/3DMatch/kitchen/gt.log", record);
+  dir.write("benchmarks/3DMatch/hotel/gt.log", record);
+  dir.write("benchmarks/3DLoMatch/kitchen/gt.log", record + identity);
+  return {dir.file("fragments"), dir.file("benchmarks")};
 }
 
 // Empty when the script can run Open3D, else why not.
@@ -285,6 +311,38 @@ TEST(MacBenchmarkPeers, CorrespondencesWithFgrReportItsTime) {
   EXPECT_FALSE(std::isnan(number(rows[0], "fgr_median_re_deg")));
   EXPECT_GE(number(rows[0], "fgr_recalled"), 0.0);  // of one repeat
   EXPECT_LE(number(rows[0], "fgr_recalled"), 1.0);
+}
+
+TEST(MacBenchmarkThreeDMatch, RunsEveryScenePairWithFragmentsAndNamesWhatItSkips) {
+  TempDir dir;
+  const auto [fragments, benchmarks] = tinyThreeDMatch(dir);
+  const CliRun r = runBenchmark(
+      "threedmatch " + fragments + " " + benchmarks + " --config " + std::string(MAC_CONFIG_DIR) +
+      "/indoor_rgbd.yaml --baseline none --set num_threads=1 --csv " + dir.file("out.csv"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("3DMatch: 1 of 2 scenes with a gt.log; skipped, no fragments in " + fragments +
+                          ": hotel"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("3DLoMatch kitchen: skipped 1 of 2 pairs, a fragment missing (first 9->0)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("| 3DMatch | all 1 scene | 1 | 100.00 % (1) |"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("| 3DLoMatch | kitchen | 1 | 100.00 % (1) |"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("| 3DLoMatch | **0.5** | 1 | 1 | 100.00 % | 0 (0) | 0.00 % |"), std::string::npos)
+      << r.output;
+  const auto rows = readCsv(dir.file("out.csv"));
+  ASSERT_EQ(rows.size(), 2u);  // one CSV for both benchmarks
+  EXPECT_EQ(rows[0].at("subset"), "3DMatch");
+  EXPECT_EQ(rows[1].at("subset"), "3DLoMatch");
+  EXPECT_EQ(rows[1].at("scene"), "kitchen");
+  EXPECT_EQ(rows[1].at("within_criterion"), "1");
+  EXPECT_GE(number(rows[1], "confidence"), 0.5);
+
+  const CliRun unknown =
+      runBenchmark("threedmatch " + fragments + " " + benchmarks + " --scenes kitchen,kitchn");
+  EXPECT_EQ(unknown.status, 2);
+  EXPECT_NE(unknown.output.find("'kitchn'"), std::string::npos) << unknown.output;
 }
 
 }  // namespace
