@@ -119,13 +119,6 @@ const std::vector<BasicParameter<NodeParams>>& nodeParameterTable() {
   return table;
 }
 
-const BasicParameter<NodeParams>* findNodeParameter(const std::string& key) {
-  for (const auto& p : nodeParameterTable()) {
-    if (p.key == key) return &p;
-  }
-  return nullptr;
-}
-
 std::vector<std::string> validateNodeParams(const NodeParams& node) {
   std::vector<std::string> problems;
   for (const auto& p : nodeParameterTable()) {

@@ -14,6 +14,14 @@
 namespace mac_registration {
 namespace {
 
+// The node table's entry of `key`, or nullptr.
+const BasicParameter<NodeParams>* findNodeParameter(const std::string& key) {
+  for (const auto& p : nodeParameterTable()) {
+    if (p.key == key) return &p;
+  }
+  return nullptr;
+}
+
 bool mentions(const std::vector<std::string>& problems, const std::string& key) {
   for (const auto& p : problems) {
     if (p.find(key) != std::string::npos) return true;

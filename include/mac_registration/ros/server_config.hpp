@@ -35,9 +35,6 @@ struct NodeParams {
 // log lists them. (num_threads is the algorithm table's.)
 const std::vector<BasicParameter<NodeParams>>& nodeParameterTable();
 
-// The entry of `key`, or nullptr.
-const BasicParameter<NodeParams>* findNodeParameter(const std::string& key);
-
 // Every problem with the node's parameters: values outside their ranges, then the rules between them.
 std::vector<std::string> validateNodeParams(const NodeParams& params);
 
