@@ -39,6 +39,13 @@ void printVerification(std::ostream& out, const MacResult& r) {
         << shareText(s.seen_on_surface) << ", in free space " << shareText(s.free_space_violation);
   if (!std::isnan(s.surface_agreement)) out << ", along the surfaces " << shareText(s.surface_agreement);
   out << "\n";
+  const FineAlignment& f = r.fine_alignment;
+  if (f.ran)
+    out << std::setprecision(2) << "fine alignment: " << f.iterations << " steps"
+        << (f.converged ? "" : " (not converged)") << ", moved " << f.rotation_deg << " deg and "
+        << f.displacement << " m (RMS, " << s.fine_alignment_move << " tau); " << shareText(f.fitness)
+        << " of the source paired, residual " << std::setprecision(3) << f.rmse << " m; "
+        << "the pose above\n";
   for (std::size_t k = 0; k < r.alternatives.size(); ++k) {
     const PoseAlternative& a = r.alternatives[k];
     out << std::setprecision(2) << "alternative " << k + 1 << ": score " << a.score_ratio << " of the best, "

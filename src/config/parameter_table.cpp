@@ -123,6 +123,9 @@ std::vector<Parameter> makeTable() {
               "verify each transform (rivals, and with clouds their alignment) before calling it a success"),
       real("verification.min_confidence", MAC_FIELD(mac.verification.min_confidence),
            "fewest confidence for a success; BENCHMARKS.md lists the measured error rates at each value"),
+      boolean("verification.fine_alignment", MAC_FIELD(mac.verification.fine_alignment),
+              "with clouds: align the pose finely on them (point-to-plane ICP), weigh the move, report the "
+              "fine pose"),
       real("verification.distinct_pose_factor", MAC_FIELD(mac.verification.distinct_pose_factor),
            "a rival pose moves the source points more than this many tau (RMS) from the reported one"),
       count("verification.max_alternatives", MAC_FIELD(mac.verification.max_alternatives),

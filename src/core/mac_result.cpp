@@ -45,6 +45,7 @@ StageTimes& StageTimes::operator+=(const StageTimes& o) {
   evaluation_ms += o.evaluation_ms;
   refinement_ms += o.refinement_ms;
   verification_ms += o.verification_ms;
+  fine_alignment_ms += o.fine_alignment_ms;
   total_ms += o.total_ms;
   return *this;
 }

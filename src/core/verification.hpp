@@ -66,13 +66,6 @@ void measureCorrespondenceSignals(const CorrespondenceSet& correspondences,
                                   const HypothesisEvaluator& evaluator, const MacParams& params,
                                   const StopFlag* stop, MacResult& result);
 
-// One signal's share of the evidence: its log-odds term and, when it speaks against the pose, why.
-struct EvidenceTerm {
-  std::string signal;  // the VerificationSignals field
-  double log_odds = 0.0;
-  std::string reason;  // a sentence a user can act on; empty when the term is for the pose
-};
-
 // The terms of the signals that were measured (NaN ones are left out), in the order of the fields.
 std::vector<EvidenceTerm> verificationEvidence(const VerificationSignals& signals);
 
@@ -83,6 +76,11 @@ double confidenceOf(const std::vector<EvidenceTerm>& terms);
 // kUnverified) becomes kSuccess at or above params.min_confidence, else kUnverified, keeping its
 // transform, with the reasons in its message. Other failures are left alone.
 void decideVerification(const VerificationParams& params, MacResult& result);
+
+// The witness's fine alignment from result.T_target_source, if it offers one, into result.fine_alignment,
+// and how far it moved the pose, in units of `tau`, into result.verification.fine_alignment_move; timed in
+// result.times.fine_alignment_ms.
+void alignFinely(const PoseWitness& witness, double tau, MacResult& result);
 
 // The signals `witness` measured (its non-NaN fields) into result.verification, and its warnings into
 // result.warnings.

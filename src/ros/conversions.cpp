@@ -287,6 +287,7 @@ void fillStageTimes(const StageTimes& t, mac_registration::RegistrationResult& m
   msg.time_evaluation_ms = t.evaluation_ms;
   msg.time_refinement_ms = t.refinement_ms;
   msg.time_verification_ms = t.verification_ms;
+  msg.time_fine_alignment_ms = t.fine_alignment_ms;
   msg.time_total_ms = t.total_ms;
 }
 
@@ -306,6 +307,12 @@ void fillVerification(const MacResult& r, mac_registration::RegistrationResult& 
   msg.chance_significance = s.chance_significance;
   msg.inlier_planarity = s.inlier_planarity;
   msg.inlier_linearity = s.inlier_linearity;
+  msg.scene_planarity = s.scene_planarity;
+  msg.fine_alignment_ran = r.fine_alignment.ran;
+  msg.fine_alignment_move = s.fine_alignment_move;
+  msg.fine_alignment_converged = s.fine_alignment_converged == 1.0;
+  msg.fine_alignment_fitness = r.fine_alignment.ran ? r.fine_alignment.fitness : kNotMeasured;
+  msg.fine_alignment_rmse = r.fine_alignment.ran ? r.fine_alignment.rmse : kNotMeasured;
   msg.alternatives.clear();
   for (const PoseAlternative& a : r.alternatives) {
     mac_registration::CompetingPose alternative;

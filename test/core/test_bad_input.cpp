@@ -224,8 +224,10 @@ TEST(BadInput, CountBoundIsReportedAsIncompleteSearch) {
   const MacResult result = registerCorrespondences(problem.correspondences, params);
   EXPECT_FALSE(result.clique_search_complete);
   EXPECT_EQ(result.counters.cliques, 10u);
-  ASSERT_FALSE(result.warnings.empty());
-  EXPECT_NE(result.warnings.back().find("cliques.max_cliques"), std::string::npos);
+  // The bound's warning (a pose from 10 cliques may draw others after it, e.g. a planar consensus).
+  EXPECT_TRUE(std::any_of(result.warnings.begin(), result.warnings.end(), [](const std::string& w) {
+    return w.find("cliques.max_cliques") != std::string::npos;
+  }));
 
   // Pruned until a search completes: still not the whole graph's cliques, and said so.
   params.cliques.max_cliques = 2000;

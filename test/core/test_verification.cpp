@@ -102,20 +102,66 @@ TEST(InlierShape, APlanarConsensusIsMeasuredAsOne) {
   ASSERT_TRUE(spread.success) << spread.message;
   EXPECT_GT(spread.verification.inlier_planarity, 0.05);
   EXPECT_GT(spread.verification.inlier_linearity, 0.05);
-  // The same correspondences with the source flattened onto z = 0 and the targets moved with it: the
-  // inliers lie on one plane, and their shape says so.
+  // The same correspondences with the inliers' sources flattened onto z = 0 and their targets moved with
+  // them, the outliers left spread: a consensus on one plane of a scene that is not flat, and its shape
+  // says so.
   CorrespondenceSet flat = problem.correspondences;
   const Eigen::Isometry3d& T = problem.T_target_source;
   for (Eigen::Index k = 0; k < flat.source_points.cols(); ++k) {
     const Eigen::Vector3d moved = T * flat.source_points.col(k);
-    const bool inlier = (moved - flat.target_points.col(k)).norm() < 0.05;
+    if ((moved - flat.target_points.col(k)).norm() >= 0.05) continue;
     flat.source_points(2, k) = 0.0;
-    if (inlier) flat.target_points.col(k) = T * flat.source_points.col(k);
+    flat.target_points.col(k) = T * flat.source_points.col(k);
   }
   const MacResult planar = registerCorrespondences(flat, test::roomScaleParams());
   ASSERT_TRUE(std::isfinite(planar.verification.inlier_planarity)) << planar.message;
   EXPECT_LT(planar.verification.inlier_planarity, 1e-6);
   EXPECT_GT(planar.verification.inlier_linearity, 0.05);
+  EXPECT_GT(planar.verification.scene_planarity, 0.05);
+  // A consensus on one plane supports its mirror image as well: not a success, and the result says why.
+  EXPECT_FALSE(planar.success);
+  EXPECT_EQ(planar.status, RegistrationStatus::kUnverified);
+  EXPECT_TRUE(contains(planar.message, "near one plane")) << planar.message;
+  EXPECT_TRUE(std::any_of(planar.warnings.begin(), planar.warnings.end(),
+                          [](const std::string& w) { return contains(w, "close to one plane"); }));
+}
+
+TEST(Evidence, TheFineAlignmentsMoveAndUnsettledStepsSpeakAgainstThePose) {
+  VerificationSignals s;
+  s.rival_ratio = 0.1;
+  const double alone = confidenceOf(verificationEvidence(s));
+  // Polished only (within 1.5 tau): no term against it.
+  s.fine_alignment_move = 1.2;
+  s.fine_alignment_converged = 1.0;
+  EXPECT_DOUBLE_EQ(confidenceOf(verificationEvidence(s)), alone);
+  // Slid 4 tau and still sliding: (4 - 1.5) x 4 + 2 log-odds points against, each with its reason.
+  s.fine_alignment_move = 4.0;
+  s.fine_alignment_converged = 0.0;
+  const std::vector<EvidenceTerm> terms = verificationEvidence(s);
+  double against = 0.0;
+  for (const EvidenceTerm& t : terms) {
+    if (t.signal == "fine_alignment_move" || t.signal == "fine_alignment_converged") {
+      against += t.log_odds;
+      EXPECT_FALSE(t.reason.empty());
+    }
+  }
+  EXPECT_NEAR(against, -12.0, 1e-12);
+  EXPECT_LT(confidenceOf(terms), 0.5);
+}
+
+TEST(Evidence, AConsensusFlatterThanItsSceneIsAgainstThePose) {
+  VerificationSignals s;
+  s.rival_ratio = 0.1;
+  const double alone = confidenceOf(verificationEvidence(s));
+  s.scene_planarity = 0.3;  // a room
+  s.inlier_planarity = 0.3;
+  EXPECT_DOUBLE_EQ(confidenceOf(verificationEvidence(s)), alone);
+  s.inlier_planarity = 0.0003;  // one wall of it
+  EXPECT_LT(confidenceOf(verificationEvidence(s)), 0.5);
+  // A road ahead of a car is as flat as its consensus: nothing against the pose.
+  s.scene_planarity = 0.0006;
+  s.inlier_planarity = 0.0005;
+  EXPECT_DOUBLE_EQ(confidenceOf(verificationEvidence(s)), alone);
 }
 
 TEST(RivalRatio, TwoEqualConsensusSetsAreAmbiguousAndBothPosesAreReported) {

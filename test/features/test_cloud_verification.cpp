@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 
 #include "mac_registration/config/preset_file.hpp"
 #include "mac_registration/core/pose_error.hpp"
@@ -128,6 +129,48 @@ TEST(AlignmentSignals, TheSignalsDoNotDependOnTheThreadCount) {
   EXPECT_GT(one.free_space_violation, 0.0);
 }
 
+Eigen::Isometry3d turnedAndShifted(double degrees, double x, double y, double z) {
+  Eigen::Isometry3d T = shifted(x, y, z);
+  T.linear() =
+      Eigen::AngleAxisd(degrees * M_PI / 180.0, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  return T;
+}
+
+TEST(FineAlignment, APoseNearTheRightOneSettlesOnIt) {
+  // Two samplings of the same room, 2.5 cm apart: a pose 3 deg and 6 cm off (within tau of the surfaces)
+  // is pulled onto the walls, floor and ceiling, which fix all six directions.
+  const FeatureCorrespondences f = twoScansOfARoom();
+  const Eigen::Isometry3d start = turnedAndShifted(3.0, 0.04, -0.03, 0.03);
+  const std::optional<FineAlignment> fine = AlignmentJudge(f, kTau).refine(start);
+  ASSERT_TRUE(fine.has_value());
+  EXPECT_TRUE(fine->ran);
+  EXPECT_TRUE(fine->converged);
+  EXPECT_GT(fine->iterations, 0);
+  EXPECT_LT(rotationErrorDeg(fine->T_target_source, Eigen::Isometry3d::Identity()), 0.2);
+  EXPECT_LT(fine->T_target_source.translation().norm(), 0.01);
+  EXPECT_TRUE(fine->start.isApprox(start));
+  EXPECT_NEAR(fine->rotation_deg, 3.0, 0.2);
+  EXPECT_GT(fine->displacement, 0.05);
+  EXPECT_GT(fine->fitness, 0.9);
+  EXPECT_LT(fine->rmse, 0.005);
+}
+
+TEST(FineAlignment, ThePoseDoesNotDependOnTheThreadCount) {
+  const FeatureCorrespondences f = twoScansOfARoom();
+  const Eigen::Isometry3d start = turnedAndShifted(2.0, 0.05, 0.02, -0.04);
+  const std::optional<FineAlignment> one = AlignmentJudge(f, kTau, 1).refine(start);
+  const std::optional<FineAlignment> two = AlignmentJudge(f, kTau, 2).refine(start);
+  ASSERT_TRUE(one && two);
+  EXPECT_EQ(one->T_target_source.matrix(), two->T_target_source.matrix());
+  EXPECT_EQ(one->iterations, two->iterations);
+}
+
+TEST(FineAlignment, NoTargetNormalsNoFineAlignment) {
+  FeatureCorrespondences f = twoScansOfARoom();
+  f.target_keypoint_normals.reset();
+  EXPECT_FALSE(AlignmentJudge(f, kTau).refine(Eigen::Isometry3d::Identity()).has_value());
+}
+
 TEST(AlignmentSignals, SurfacesCrossingAtTheRightDistanceDoNotAgree) {
   // The source's normals turned by 90 deg: every keypoint still lies on the target's walls, none along
   // them (what a cloud put at random into another scene looks like).
@@ -233,6 +276,27 @@ TEST(ShippedPairs, AnOverlappingPairIsVerified) {
   EXPECT_LT(m.verification.free_space_violation, 0.015);
   const Eigen::Isometry3d truth = readTransformFile(demoDataPath("redkitchen_4_0/T_target_source_gt.txt"));
   EXPECT_LT(rotationErrorDeg(m.T_target_source, truth), 15.0);
+  // The pose reported is the fine alignment's; the one the correspondences gave is kept beside it.
+  ASSERT_TRUE(m.fine_alignment.ran);
+  EXPECT_TRUE(m.T_target_source.isApprox(m.fine_alignment.T_target_source));
+  EXPECT_FALSE(m.fine_alignment.start.isApprox(m.fine_alignment.T_target_source));
+  EXPECT_LT(m.verification.fine_alignment_move, 1.0);  // a right pose is only polished
+  EXPECT_EQ(m.verification.fine_alignment_converged, 1.0);
+  EXPECT_GT(m.times.fine_alignment_ms, 0.0);
+  EXPECT_LE(m.times.fine_alignment_ms, m.times.verification_ms);
+}
+
+TEST(ShippedPairs, WithoutTheFineAlignmentThePoseIsTheCorrespondences) {
+  MacParams params;
+  params.verification.fine_alignment = false;
+  const CloudRegistrationResult r =
+      registerClouds(*fragments().fragment_4, *fragments().fragment_0, FeatureParams{}, params);
+  const MacResult& m = r.registration;
+  ASSERT_TRUE(m.success) << m.message;
+  EXPECT_FALSE(m.fine_alignment.ran);
+  EXPECT_TRUE(std::isnan(m.verification.fine_alignment_move));
+  const CloudRegistrationResult with = registerIndoor(*fragments().fragment_4, *fragments().fragment_0);
+  EXPECT_TRUE(m.T_target_source.isApprox(with.registration.fine_alignment.start));
 }
 
 bool anyContains(const std::vector<std::string>& texts, const std::string& part) {

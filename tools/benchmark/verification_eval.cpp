@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -73,12 +74,37 @@ VerificationCase judgeCase(VerificationCase c, const MacResult& result, const Ei
   c.truth = truth;
   c.registered = result.success || result.status == RegistrationStatus::kUnverified;
   if (c.registered && c.has_truth) {
-    c.rotation_error_deg = rotationErrorDeg(result.T_target_source, truth);
-    c.translation_error = translationError(result.T_target_source, truth);
+    const FineAlignment& fine = result.fine_alignment;
+    const bool refined = fine.ran && fine.iterations > 0;
+    const Eigen::Isometry3d& global = refined ? fine.start : result.T_target_source;
+    const Eigen::Isometry3d& reported = refined ? fine.T_target_source : result.T_target_source;
+    c.rotation_error_deg = rotationErrorDeg(reported, truth);
+    c.translation_error = translationError(reported, truth);
+    c.global_rotation_error_deg = rotationErrorDeg(global, truth);
+    c.global_translation_error = translationError(global, truth);
     c.correct = criterion.accepts(c.rotation_error_deg, c.translation_error);
   }
   return c;
 }
+
+namespace {
+
+// Where the clouds' own fit lies near the ground truth: the witness's fine alignment started at the truth,
+// how far it moves the truth and how far it ends from the pose reported. A wrong pose that the fit from
+// the truth lands on is one the clouds cannot tell from the truth.
+void fitFromTruth(const PoseWitness& witness, const Eigen::Isometry3d& truth, VerificationCase& c) {
+  const std::optional<FineAlignment> fine = witness.refine(truth);
+  if (!fine || fine->iterations == 0) return;
+  const FineAlignment& reported = c.result.fine_alignment;
+  const Eigen::Isometry3d& pose =
+      reported.ran && reported.iterations > 0 ? reported.T_target_source : c.result.T_target_source;
+  c.truth_fit_moves_deg = rotationErrorDeg(fine->T_target_source, truth);
+  c.truth_fit_moves_m = translationError(fine->T_target_source, truth);
+  c.truth_fit_to_reported_deg = rotationErrorDeg(fine->T_target_source, pose);
+  c.truth_fit_to_reported_m = translationError(fine->T_target_source, pose);
+}
+
+}  // namespace
 
 std::vector<VerificationCase> runVerificationPair(const BenchmarkPair& pair,
                                                   const BenchmarkSettings& settings, bool derived) {
@@ -103,6 +129,8 @@ std::vector<VerificationCase> runVerificationPair(const BenchmarkPair& pair,
     cases.push_back(judgeCase(c, prepared.registerSet(set), pair.T_target_source_gt, settings.criterion));
   };
   run(base, prepared.correspondences);
+  if (pair.has_ground_truth && prepared.cloud_witness && hasEstimate(cases.back().result))
+    fitFromTruth(*prepared.cloud_witness(), pair.T_target_source_gt, cases.back());
   if (derived && pair.has_ground_truth) {
     VerificationCase negative = base;
     negative.answerable = false;
@@ -222,17 +250,35 @@ void printCasesByKind(std::ostream& out, const std::vector<VerificationCase>& ca
   }
 }
 
+namespace {
+
+// The evidence terms as "signal:log-odds" separated by spaces.
+std::string evidenceText(const std::vector<EvidenceTerm>& terms) {
+  std::ostringstream text;
+  text << std::setprecision(6);
+  for (std::size_t k = 0; k < terms.size(); ++k)
+    text << (k ? " " : "") << terms[k].signal << ":" << terms[k].log_odds;
+  return text.str();
+}
+
+}  // namespace
+
 void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>& cases) {
   out << "name,subset,kind,answerable,has_truth,registered,correct,success,status,confidence,re_deg,te_m,"
          "correspondences,inlier_ratio,inliers,rival_ratio,rival_rotation_deg,rival_displacement_m,"
          "aligned_overlap,seen_on_surface,free_space_violation,surface_agreement,chance_inliers,"
-         "chance_significance,inlier_planarity,inlier_linearity,alternatives,alternative_score_ratio,"
-         "alternative_rotation_deg,alternative_re_deg,alternative_te_m,front_end_ms,core_ms,verification_ms,"
-         "message\n";
+         "chance_significance,inlier_planarity,inlier_linearity,scene_planarity,alternatives,alternative_"
+         "score_ratio,"
+         "alternative_rotation_deg,alternative_re_deg,alternative_te_m,global_re_deg,global_te_m,"
+         "fine_alignment_move,fine_alignment_converged,fine_alignment_rotation_deg,fine_alignment_fitness,"
+         "fine_alignment_rmse,"
+         "fine_alignment_iterations,truth_fit_moves_deg,truth_fit_moves_m,truth_fit_to_reported_deg,"
+         "truth_fit_to_reported_m,front_end_ms,core_ms,verification_ms,fine_alignment_ms,evidence,message\n";
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (const VerificationCase& c : cases) {
     const MacResult& r = c.result;
     const VerificationSignals& s = r.verification;
+    const FineAlignment& f = r.fine_alignment;
     const bool alternative = !r.alternatives.empty();
     const PoseAlternative a = alternative ? r.alternatives.front() : PoseAlternative{};
     std::string message = c.error.empty() ? r.message : c.error;
@@ -244,12 +290,17 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
         << "," << s.rival_rotation_deg << "," << s.rival_displacement << "," << s.aligned_overlap << ","
         << s.seen_on_surface << "," << s.free_space_violation << "," << s.surface_agreement << ","
         << s.chance_inliers << "," << s.chance_significance << "," << s.inlier_planarity << ","
-        << s.inlier_linearity << "," << r.alternatives.size() << "," << (alternative ? a.score_ratio : nan)
-        << "," << (alternative ? a.rotation_deg : nan) << ","
+        << s.inlier_linearity << "," << s.scene_planarity << "," << r.alternatives.size() << ","
+        << (alternative ? a.score_ratio : nan) << "," << (alternative ? a.rotation_deg : nan) << ","
         << (alternative && c.has_truth ? rotationErrorDeg(a.T_target_source, c.truth) : nan) << ","
         << (alternative && c.has_truth ? translationError(a.T_target_source, c.truth) : nan) << ","
-        << c.front_end_ms << "," << r.times.total_ms - r.times.verification_ms << ","
-        << r.times.verification_ms << ",\"" << message << "\"\n";
+        << c.global_rotation_error_deg << "," << c.global_translation_error << "," << s.fine_alignment_move
+        << "," << s.fine_alignment_converged << "," << (f.ran ? f.rotation_deg : nan) << ","
+        << (f.ran ? f.fitness : nan) << "," << (f.ran ? f.rmse : nan) << "," << f.iterations << ","
+        << c.truth_fit_moves_deg << "," << c.truth_fit_moves_m << "," << c.truth_fit_to_reported_deg << ","
+        << c.truth_fit_to_reported_m << "," << c.front_end_ms << ","
+        << r.times.total_ms - r.times.verification_ms << "," << r.times.verification_ms << ","
+        << r.times.fine_alignment_ms << ",\"" << evidenceText(r.evidence) << "\",\"" << message << "\"\n";
   }
 }
 

@@ -29,6 +29,15 @@ struct VerificationCase {
   bool correct = false;     // registered, has_truth and within the criterion
   double rotation_error_deg = std::numeric_limits<double>::quiet_NaN();
   double translation_error = std::numeric_limits<double>::quiet_NaN();  // [m]
+  // Of the correspondences' pose, before a fine alignment (the same as above where none ran).
+  double global_rotation_error_deg = std::numeric_limits<double>::quiet_NaN();
+  double global_translation_error = std::numeric_limits<double>::quiet_NaN();  // [m]
+  // The clouds' fine alignment started at the ground truth (pairs of clouds with one): how far it moves the
+  // truth, and how far from the reported pose it ends.
+  double truth_fit_moves_deg = std::numeric_limits<double>::quiet_NaN();
+  double truth_fit_moves_m = std::numeric_limits<double>::quiet_NaN();
+  double truth_fit_to_reported_deg = std::numeric_limits<double>::quiet_NaN();
+  double truth_fit_to_reported_m = std::numeric_limits<double>::quiet_NaN();
   std::size_t correspondences = 0;
   double inlier_ratio = 0.0;  // under the ground truth, at tau (0 without one)
   double front_end_ms = 0.0;
@@ -37,7 +46,9 @@ struct VerificationCase {
   Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
 };
 
-// Turns a result into a case: registered, errors against the truth, correct.
+// Turns a result into a case: registered, errors against the truth, correct. The errors are those of the
+// pose a success reports (the fine alignment's, where one ran), whatever the decision: a threshold swept
+// over the confidence accepts that pose.
 VerificationCase judgeCase(VerificationCase c, const MacResult& result, const Eigen::Isometry3d& truth,
                            const SuccessCriterion& criterion);
 

@@ -51,7 +51,8 @@ struct StageTimes {
   double hypotheses_ms = 0.0;  // SVD per selected clique
   double evaluation_ms = 0.0;  // scoring every hypothesis on all correspondences
   double refinement_ms = 0.0;
-  double verification_ms = 0.0;  // signals, alternatives and confidence (with a witness: its judging too)
+  double verification_ms = 0.0;    // signals, alternatives and confidence (with a witness: its judging too)
+  double fine_alignment_ms = 0.0;  // a witness's fine alignment of the pose (part of verification_ms)
   // From the start of the first stage timed here to the end of the last, what lies between them included
   // (the core's bookkeeping around its stages): at least the sum of the stages.
   double total_ms = 0.0;
@@ -110,10 +111,20 @@ struct VerificationSignals {
   double chance_significance = kNotMeasured;
   // The shape of the inliers' source points, from the eigenvalues l1 >= l2 >= l3 of their covariance:
   // planarity l3 / l2 near 0 is a consensus on one plane (one wall matched onto another supports a turned
-  // or slid pose as well as the right one), linearity l2 / l1 near 0 one along a line. Measured, not yet
-  // weighed in the decision.
+  // or slid pose as well as the right one), linearity l2 / l1 near 0 one along a line (measured, not
+  // weighed: a lidar's inliers along a street are right poses too).
   double inlier_planarity = kNotMeasured;
   double inlier_linearity = kNotMeasured;
+  // Planarity l3 / l2 of all the matched source points: the scene's own flatness (a road ahead of a car is
+  // flat, a room is not), against which the inliers' planarity is judged.
+  double scene_planarity = kNotMeasured;
+  // [x tau] How far the fine alignment on the clouds (FineAlignment) moved the paired source keypoints from
+  // the pose verified, RMS: a right pose is only polished (a fraction of tau), a near miss slides several tau
+  // into the surfaces' own fit, and a pose in a wrong basin moves wherever that basin's walls lead it.
+  double fine_alignment_move = kNotMeasured;
+  // 1 where the fine alignment settled within its steps, 0 where it was still sliding (along a wall, out
+  // of a wrong basin) when they ran out.
+  double fine_alignment_converged = kNotMeasured;
   // From the clouds (front end only), on the keypoints, at tau = evaluation.inlier_threshold.
   double aligned_overlap = kNotMeasured;  // share of the aligned source within tau of the target
   // Of the aligned source keypoints in directions the target's sensor saw (its viewpoint), the share on
@@ -128,6 +139,31 @@ struct VerificationSignals {
   double free_space_violation = kNotMeasured;
 };
 
+// One signal's share of the evidence the confidence sums: its log-odds term and, when it speaks against the
+// pose, why.
+struct EvidenceTerm {
+  std::string signal;  // the VerificationSignals field
+  double log_odds = 0.0;
+  std::string reason;  // a sentence a user can act on; empty when the term is for the pose
+};
+
+// The fine alignment of a verified pose on the clouds: point-to-plane ICP of the source keypoints onto the
+// target's keypoints and normals, each paired with its nearest target keypoint within tau, from the pose the
+// correspondences gave. Offered by a witness that holds the clouds (PoseWitness::refine).
+struct FineAlignment {
+  bool ran = false;
+  bool converged = false;  // its last step moved the paired points by less than a thousandth of tau
+  int iterations = 0;
+  Eigen::Isometry3d start = Eigen::Isometry3d::Identity();            // the pose it started from
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();  // the pose it ended at
+  double fitness = 0.0;        // share of the source keypoints paired at the end (within tau; of a large
+                               // cloud's keypoints, every k-th is used: at most 5000)
+  double rmse = 0.0;           // [m] RMS point-to-plane residual of those pairs
+  double rotation_deg = 0.0;   // [deg] rotation between the two poses
+  double translation_m = 0.0;  // [m] distance between their translations
+  double displacement = 0.0;   // [m] RMS displacement of the paired source keypoints between the two poses
+};
+
 struct MacResult {
   bool success = false;
   RegistrationStatus status = RegistrationStatus::kInternalError;
@@ -135,10 +171,12 @@ struct MacResult {
   std::vector<std::string> warnings;  // bounds that were hit and what was done about them
   // Maps source points into the target frame (as tf2's lookupTransform(target, source)). Identity, and
   // not to be used, unless success, or status kTooFewInliers or kUnverified (then the best transform found,
-  // unverified).
+  // unverified). Where a fine alignment ran, the pose it ended at (fine_alignment.start is the one the
+  // correspondences gave and the verification decided on).
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+  // The consensus of the correspondences' pose (fine_alignment.start where it ran).
   std::vector<int> inlier_indices;  // indices into the caller's correspondences
-  double score = 0.0;               // evaluation metric of T_target_source
+  double score = 0.0;               // evaluation metric
   // False when a bound (cliques.time_limit, cliques.max_cliques) stopped the enumeration, also when a
   // search of the graph pruned to its strongest nodes completed after it (a warning says which).
   bool clique_search_complete = true;
@@ -149,6 +187,10 @@ struct MacResult {
   // verification.min_confidence. 0 when nothing was verified (no transform, or verification off).
   double confidence = 0.0;
   VerificationSignals verification;
+  // The terms the confidence is the logistic function of, one per measured signal, in the order of the
+  // signals' fields (empty when nothing was verified).
+  std::vector<EvidenceTerm> evidence;
+  FineAlignment fine_alignment;  // ran: false where no witness offered one (correspondences alone)
   // Distinct competing poses, best first (at most verification.max_alternatives), each refined.
   std::vector<PoseAlternative> alternatives;
 };

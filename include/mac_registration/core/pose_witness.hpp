@@ -6,6 +6,7 @@
 // target's sensor saw through?); a map a scan is placed into can be another.
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,16 @@ class PoseWitness {
   // for a transform that reached the verification: the expensive part of a witness belongs here, not in
   // its constructor, so that a registration that fails earlier costs nothing more.
   virtual VerificationSignals judge(const Eigen::Isometry3d& T_target_source) const = 0;
+
+  // The pose a fine alignment on this witness's data reaches from T_target_source (a point-to-plane ICP on
+  // the clouds), or nothing where it holds no such data. Called at most once per registration, before
+  // judge(), and only when verification.fine_alignment is on. The verification decides on the pose given;
+  // how far the fine alignment moved it is one of its signals (fine_alignment_move), and the result
+  // carries the fine pose.
+  virtual std::optional<FineAlignment> refine(const Eigen::Isometry3d& T_target_source) const {
+    (void)T_target_source;
+    return std::nullopt;
+  }
 
   // Sentences for result.warnings about what this witness could not use (read after judge()).
   virtual std::vector<std::string> warnings() const { return {}; }

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,10 @@ class AlignmentJudge : public PoseWitness {
   // the target saw fewer than 10 of the aligned source keypoints, surface_agreement NaN without both
   // clouds' keypoint normals or with fewer than 10 aligned keypoints on the target's surfaces.
   VerificationSignals judge(const Eigen::Isometry3d& T_target_source) const override;
+
+  // Point-to-plane ICP of the source keypoints onto the target's keypoints and normals (pairs within tau,
+  // at most 30 steps); nothing without the target's normals or with fewer than 3 keypoints in either cloud.
+  std::optional<FineAlignment> refine(const Eigen::Isometry3d& T_target_source) const override;
 
  private:
   struct View;

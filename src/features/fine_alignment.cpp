@@ -1,0 +1,146 @@
+#include "fine_alignment.hpp"
+
+#include <omp.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "mac_registration/core/pose_error.hpp"
+#include "verification.hpp"
+
+namespace mac_registration {
+namespace {
+
+// The normal equations of one pass: J^T J (6 x 6, rotation then translation) and J^T r of the pairs'
+// point-to-plane residuals, and what the pairs were.
+struct NormalEquations {
+  Eigen::Matrix<double, 6, 6> JtJ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> Jtr = Eigen::Matrix<double, 6, 1>::Zero();
+  double squared_residuals = 0.0;
+  std::size_t considered = 0;  // source keypoints looked at (every one, or every k-th of a large cloud)
+  std::size_t pairs = 0;
+  Eigen::Vector3d paired_sum = Eigen::Vector3d::Zero();  // the paired source points, in the source frame
+  Eigen::Matrix3d paired_outer = Eigen::Matrix3d::Zero();
+
+  NormalEquations& operator+=(const NormalEquations& o) {
+    JtJ += o.JtJ;
+    Jtr += o.Jtr;
+    squared_residuals += o.squared_residuals;
+    considered += o.considered;
+    pairs += o.pairs;
+    paired_sum += o.paired_sum;
+    paired_outer += o.paired_outer;
+    return *this;
+  }
+};
+
+// Sums are taken over fixed blocks of the source, then the blocks in order: the same doubles whatever
+// the thread count.
+constexpr int kBlocks = 64;
+
+// Source keypoints paired at most: every k-th of a larger cloud (a lidar scan's 10-20 thousand), evenly
+// over its order, so that a step costs what a 3DMatch fragment's (4-5 thousand keypoints) does; six
+// unknowns are fixed long before that.
+constexpr int kMostPaired = 5000;
+
+NormalEquations linearise(const PointCloud& source, const PointCloud& target,
+                          const pcl::PointCloud<pcl::Normal>& normals, const CloudGrid& grid,
+                          const Eigen::Isometry3d& T, int threads) {
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  const int stride = std::max(1, int((source.size() + kMostPaired - 1) / kMostPaired));
+  const int n = int((source.size() + stride - 1) / stride);  // the paired: source[k * stride]
+  std::vector<NormalEquations> blocks(kBlocks);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (int b = 0; b < kBlocks; ++b) {
+    NormalEquations& e = blocks[b];
+    const int end = int((long(n) * (b + 1)) / kBlocks);
+    for (int k = int((long(n) * b) / kBlocks); k < end; ++k) {
+      const int i = k * stride;
+      pcl::PointXYZ q;
+      q.getVector3fMap() = Tf * source[i].getVector3fMap();
+      int nearest = 0;
+      float squared = 0.0f;
+      if (!nearestWithin(grid, q, nearest, squared)) continue;
+      const Eigen::Vector3d normal = normals[nearest].getNormalVector3fMap().cast<double>();
+      if (!normal.allFinite() || normal.squaredNorm() < 0.5) continue;
+      const Eigen::Vector3d p = source[i].getVector3fMap().cast<double>();
+      const Eigen::Vector3d moved = T * p;
+      const double residual = normal.dot(moved - target[nearest].getVector3fMap().cast<double>());
+      Eigen::Matrix<double, 6, 1> J;
+      J << moved.cross(normal), normal;
+      e.JtJ.selfadjointView<Eigen::Upper>().rankUpdate(J);
+      e.Jtr += J * residual;
+      e.squared_residuals += residual * residual;
+      ++e.pairs;
+      e.paired_sum += p;
+      e.paired_outer += p * p.transpose();
+    }
+  }
+  NormalEquations total;
+  for (const NormalEquations& e : blocks) total += e;
+  total.considered = std::size_t(n);
+  total.JtJ = total.JtJ.selfadjointView<Eigen::Upper>();
+  return total;
+}
+
+PointMoments momentsOf(const NormalEquations& e) {
+  PointMoments m;
+  if (e.pairs == 0) return m;
+  m.mean = e.paired_sum / double(e.pairs);
+  m.second = e.paired_outer / double(e.pairs);
+  return m;
+}
+
+// A step moving the paired points by less than this share of the pairing distance (RMS) ends the
+// iterations: far below the keypoints' own spacing.
+constexpr double kConvergedShare = 1e-3;
+
+// Fewest pairs for a step: six unknowns, and a few pairs more than that so that one surface patch
+// cannot drive it.
+constexpr std::size_t kFewestPairs = 12;
+
+}  // namespace
+
+FineAlignment alignPointToPlane(const PointCloud& source, const PointCloud& target,
+                                const pcl::PointCloud<pcl::Normal>& target_normals,
+                                const CloudGrid& target_grid, const Eigen::Isometry3d& start,
+                                int max_iterations, int threads) {
+  FineAlignment out;
+  out.ran = true;
+  out.start = start;
+  Eigen::Isometry3d T = start;
+  const double distance = target_grid.radius();
+  NormalEquations e = linearise(source, target, target_normals, target_grid, T, threads);
+  for (int iteration = 0; iteration < max_iterations && e.pairs >= kFewestPairs; ++iteration) {
+    // A damping of a millionth of the mean curvature keeps a direction the surfaces leave free (a
+    // corridor's length, a floor's plane) where it is instead of letting rounding slide it.
+    Eigen::Matrix<double, 6, 6> H = e.JtJ;
+    H.diagonal().array() += 1e-6 * H.trace() / 6.0;
+    const Eigen::Matrix<double, 6, 1> x = H.ldlt().solve(-e.Jtr);
+    if (!x.allFinite()) break;
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    const double angle = x.head<3>().norm();
+    if (angle > 0.0) step.linear() = Eigen::AngleAxisd(angle, x.head<3>() / angle).toRotationMatrix();
+    step.translation() = x.tail<3>();
+    const Eigen::Isometry3d next = step * T;
+    const double moved = rmsDisplacement(next, T, momentsOf(e));
+    T = next;
+    out.iterations = iteration + 1;
+    e = linearise(source, target, target_normals, target_grid, T, threads);
+    if (moved < kConvergedShare * distance) {
+      out.converged = true;
+      break;
+    }
+  }
+  out.T_target_source = T;
+  out.fitness = e.considered > 0 ? double(e.pairs) / double(e.considered) : 0.0;
+  out.rmse = e.pairs > 0 ? std::sqrt(e.squared_residuals / double(e.pairs)) : 0.0;
+  out.rotation_deg = rotationErrorDeg(start, T);
+  out.translation_m = (start.translation() - T.translation()).norm();
+  out.displacement = rmsDisplacement(start, T, momentsOf(e));
+  return out;
+}
+
+}  // namespace mac_registration
