@@ -38,8 +38,14 @@ class MapOdomTest : public ::testing::Test {
  protected:
   void SetUp() override {
     ASSERT_TRUE(ros::service::waitForService(kService, ros::Duration(60.0)));
-    // The launch file's static odom -> scan transform must be known before a registration looks it up.
+    // The launch file's static odom -> scan transform must be known before a registration looks it up:
+    // here, and in the node, whose listener receives it on its own thread (a loaded machine can answer a
+    // first call before it has; the node then says "missing odometry", rightly).
     ASSERT_TRUE(buffer_.canTransform("odom", "scan", ros::Time(0), ros::Duration(10.0)));
+    const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
+    while (registerSet(request("scan")).status == mac_registration::RegistrationResult::MISSING_ODOMETRY &&
+           ros::WallTime::now() < give_up)
+      ros::WallDuration(0.1).sleep();
   }
 
   mac_registration::RegistrationResult registerSet(mac_registration::RegisterCorrespondences srv) {
