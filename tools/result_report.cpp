@@ -46,6 +46,13 @@ void printVerification(std::ostream& out, const MacResult& r) {
         << f.displacement << " m (RMS, " << s.fine_alignment_move << " tau); " << shareText(f.fitness)
         << " of the source paired, residual " << std::setprecision(3) << f.rmse << " m; "
         << "the pose above\n";
+  if (f.ran) {
+    out << std::setprecision(4) << "covariance (source frame), standard deviations: x y z";
+    for (int k = 0; k < 3; ++k) out << " " << std::sqrt(f.covariance(k, k));
+    out << " m, rotation x y z";
+    for (int k = 3; k < 6; ++k) out << " " << std::sqrt(f.covariance(k, k)) * 180.0 / M_PI;
+    out << " deg\n";
+  }
   for (std::size_t k = 0; k < r.alternatives.size(); ++k) {
     const PoseAlternative& a = r.alternatives[k];
     out << std::setprecision(2) << "alternative " << k + 1 << ": score " << a.score_ratio << " of the best, "

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -101,6 +102,49 @@ constexpr double kConvergedShare = 1e-3;
 // cannot drive it.
 constexpr std::size_t kFewestPairs = 12;
 
+// The covariance of the pose T from the last linearisation, in the source frame: the steps perturb T on
+// the left, in the target frame (rotation, then translation), with covariance the residual variance
+// times the inverse of J^T J; a motion d_t on the left is d_s = Ad(T^-1) d_t on the right, which, in the
+// order (translation, rotation), is [R^T, -R^T [t]x; 0, R^T] d_t. Directions the surfaces leave free
+// (eigenvalues below a billionth of the largest) get kFreeVariance instead of the rounding noise an inverse
+// would give them.
+constexpr double kFreeVariance = 1e6;
+
+Eigen::Matrix<double, 6, 6> poseCovariance(const NormalEquations& e, const Eigen::Isometry3d& T) {
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity() * kFreeVariance;
+  if (e.pairs <= 6) return covariance;
+  const double variance = e.squared_residuals / double(e.pairs - 6);
+  // J^T J is symmetric and positive semi-definite: its singular vectors are its eigenvectors. (Jacobi
+  // rotations rather than Eigen's tridiagonalising solver, which GCC 12 for 64-bit ARM warns about.)
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> eigen(e.JtJ, Eigen::ComputeFullU);
+  const Eigen::Matrix<double, 6, 1> values = eigen.singularValues();
+  const double largest = values.maxCoeff();
+  Eigen::Matrix<double, 6, 1> inverse;
+  Eigen::Matrix<double, 6, 1> free_direction;
+  for (int k = 0; k < 6; ++k) {
+    const bool fixed = largest > 0.0 && values[k] > 1e-9 * largest;
+    inverse[k] = fixed ? variance / values[k] : 0.0;
+    free_direction[k] = fixed ? 0.0 : 1.0;
+  }
+  Eigen::Matrix<double, 6, 6> swap =
+      Eigen::Matrix<double, 6, 6>::Zero();  // (rotation, translation) -> (translation, rotation)
+  swap.block<3, 3>(0, 3).setIdentity();
+  swap.block<3, 3>(3, 0).setIdentity();
+  const Eigen::Matrix3d Rt = T.linear().transpose();
+  const Eigen::Vector3d t = T.translation();
+  Eigen::Matrix3d t_cross;
+  t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  Eigen::Matrix<double, 6, 6> to_source = Eigen::Matrix<double, 6, 6>::Zero();
+  to_source.block<3, 3>(0, 0) = Rt;
+  to_source.block<3, 3>(0, 3) = -Rt * t_cross;
+  to_source.block<3, 3>(3, 3) = Rt;
+  const Eigen::Matrix<double, 6, 6> map = to_source * swap * eigen.matrixU();
+  covariance = map * inverse.asDiagonal() * map.transpose();
+  // A free direction, mapped the same way, gets kFreeVariance along it.
+  covariance += map * (free_direction * kFreeVariance).asDiagonal() * map.transpose();
+  return covariance;
+}
+
 }  // namespace
 
 FineAlignment alignPointToPlane(const PointCloud& source, const PointCloud& target,
@@ -140,6 +184,7 @@ FineAlignment alignPointToPlane(const PointCloud& source, const PointCloud& targ
   out.rotation_deg = rotationErrorDeg(start, T);
   out.translation_m = (start.translation() - T.translation()).norm();
   out.displacement = rmsDisplacement(start, T, momentsOf(e));
+  out.covariance = poseCovariance(e, T);
   return out;
 }
 

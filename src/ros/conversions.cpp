@@ -313,6 +313,9 @@ void fillVerification(const MacResult& r, mac_registration::RegistrationResult& 
   msg.fine_alignment_converged = s.fine_alignment_converged == 1.0;
   msg.fine_alignment_fitness = r.fine_alignment.ran ? r.fine_alignment.fitness : kNotMeasured;
   msg.fine_alignment_rmse = r.fine_alignment.ran ? r.fine_alignment.rmse : kNotMeasured;
+  for (int k = 0; k < 36; ++k)
+    msg.covariance[std::size_t(k)] =
+        r.fine_alignment.ran ? r.fine_alignment.covariance(k / 6, k % 6) : kNotMeasured;
   msg.alternatives.clear();
   for (const PoseAlternative& a : r.alternatives) {
     mac_registration::CompetingPose alternative;

@@ -270,7 +270,8 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
          "chance_significance,inlier_planarity,inlier_linearity,scene_planarity,alternatives,alternative_"
          "score_ratio,"
          "alternative_rotation_deg,alternative_re_deg,alternative_te_m,global_re_deg,global_te_m,"
-         "fine_alignment_move,fine_alignment_converged,fine_alignment_rotation_deg,fine_alignment_fitness,"
+         "fine_alignment_move,fine_alignment_converged,covariance_translation_m,covariance_rotation_deg,"
+         "fine_alignment_rotation_deg,fine_alignment_fitness,"
          "fine_alignment_rmse,"
          "fine_alignment_iterations,truth_fit_moves_deg,truth_fit_moves_m,truth_fit_to_reported_deg,"
          "truth_fit_to_reported_m,front_end_ms,core_ms,verification_ms,fine_alignment_ms,evidence,message\n";
@@ -295,10 +296,12 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
         << (alternative && c.has_truth ? rotationErrorDeg(a.T_target_source, c.truth) : nan) << ","
         << (alternative && c.has_truth ? translationError(a.T_target_source, c.truth) : nan) << ","
         << c.global_rotation_error_deg << "," << c.global_translation_error << "," << s.fine_alignment_move
-        << "," << s.fine_alignment_converged << "," << (f.ran ? f.rotation_deg : nan) << ","
-        << (f.ran ? f.fitness : nan) << "," << (f.ran ? f.rmse : nan) << "," << f.iterations << ","
-        << c.truth_fit_moves_deg << "," << c.truth_fit_moves_m << "," << c.truth_fit_to_reported_deg << ","
-        << c.truth_fit_to_reported_m << "," << c.front_end_ms << ","
+        << "," << s.fine_alignment_converged << ","
+        << (f.ran ? std::sqrt(f.covariance.block<3, 3>(0, 0).trace()) : nan) << ","
+        << (f.ran ? std::sqrt(f.covariance.block<3, 3>(3, 3).trace()) * 180.0 / M_PI : nan) << ","
+        << (f.ran ? f.rotation_deg : nan) << "," << (f.ran ? f.fitness : nan) << "," << (f.ran ? f.rmse : nan)
+        << "," << f.iterations << "," << c.truth_fit_moves_deg << "," << c.truth_fit_moves_m << ","
+        << c.truth_fit_to_reported_deg << "," << c.truth_fit_to_reported_m << "," << c.front_end_ms << ","
         << r.times.total_ms - r.times.verification_ms << "," << r.times.verification_ms << ","
         << r.times.fine_alignment_ms << ",\"" << evidenceText(r.evidence) << "\",\"" << message << "\"\n";
   }

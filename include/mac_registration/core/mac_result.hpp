@@ -162,6 +162,13 @@ struct FineAlignment {
   double rotation_deg = 0.0;   // [deg] rotation between the two poses
   double translation_m = 0.0;  // [m] distance between their translations
   double displacement = 0.0;   // [m] RMS displacement of the paired source keypoints between the two poses
+  // How certain T_target_source is, from the fit: the residual variance times the inverse of the
+  // point-to-plane Gauss-Newton matrix at the final pose. The covariance of a small motion d in the source
+  // frame, T_true = T_target_source * exp(d), d = (translation x, y, z [m], rotation about x, y, z [rad]):
+  // the order and frame of a relative-pose edge in g2o or hdl_graph_slam (GTSAM's Pose3 puts the rotation
+  // first). A direction the surfaces leave free (a corridor's length) has variance 1e6. README, "Using
+  // the covariance".
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity() * 1e6;
 };
 
 struct MacResult {
