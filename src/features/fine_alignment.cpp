@@ -29,7 +29,6 @@ struct NormalEquations {
     JtJ += o.JtJ;
     Jtr += o.Jtr;
     squared_residuals += o.squared_residuals;
-    considered += o.considered;
     pairs += o.pairs;
     paired_sum += o.paired_sum;
     paired_outer += o.paired_outer;

@@ -74,12 +74,11 @@ VerificationCase judgeCase(VerificationCase c, const MacResult& result, const Ei
   c.truth = truth;
   c.registered = result.success || result.status == RegistrationStatus::kUnverified;
   if (c.registered && c.has_truth) {
+    // T_target_source is the fine alignment's pose where one ran; its start is the correspondences' pose.
     const FineAlignment& fine = result.fine_alignment;
-    const bool refined = fine.ran && fine.iterations > 0;
-    const Eigen::Isometry3d& global = refined ? fine.start : result.T_target_source;
-    const Eigen::Isometry3d& reported = refined ? fine.T_target_source : result.T_target_source;
-    c.rotation_error_deg = rotationErrorDeg(reported, truth);
-    c.translation_error = translationError(reported, truth);
+    const Eigen::Isometry3d& global = fine.ran && fine.iterations > 0 ? fine.start : result.T_target_source;
+    c.rotation_error_deg = rotationErrorDeg(result.T_target_source, truth);
+    c.translation_error = translationError(result.T_target_source, truth);
     c.global_rotation_error_deg = rotationErrorDeg(global, truth);
     c.global_translation_error = translationError(global, truth);
     c.correct = criterion.accepts(c.rotation_error_deg, c.translation_error);
@@ -95,9 +94,7 @@ namespace {
 void fitFromTruth(const PoseWitness& witness, const Eigen::Isometry3d& truth, VerificationCase& c) {
   const std::optional<FineAlignment> fine = witness.refine(truth);
   if (!fine || fine->iterations == 0) return;
-  const FineAlignment& reported = c.result.fine_alignment;
-  const Eigen::Isometry3d& pose =
-      reported.ran && reported.iterations > 0 ? reported.T_target_source : c.result.T_target_source;
+  const Eigen::Isometry3d& pose = c.result.T_target_source;
   c.truth_fit_moves_deg = rotationErrorDeg(fine->T_target_source, truth);
   c.truth_fit_moves_m = translationError(fine->T_target_source, truth);
   c.truth_fit_to_reported_deg = rotationErrorDeg(fine->T_target_source, pose);

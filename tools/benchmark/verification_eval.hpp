@@ -47,8 +47,8 @@ struct VerificationCase {
 };
 
 // Turns a result into a case: registered, errors against the truth, correct. The errors are those of the
-// pose a success reports (the fine alignment's, where one ran), whatever the decision: a threshold swept
-// over the confidence accepts that pose.
+// reported pose (the fine alignment's, where one ran), whatever the decision: a threshold swept over the
+// confidence accepts that pose.
 VerificationCase judgeCase(VerificationCase c, const MacResult& result, const Eigen::Isometry3d& truth,
                            const SuccessCriterion& criterion);
 
