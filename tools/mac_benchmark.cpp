@@ -19,6 +19,11 @@
 //                        near-inliers and with shuffled targets; --synthetic the synthetic grid of
 //                        --sizes/--ratios/--repeats and its 0 % and unrelated sets;
 //                        --no-cloud-verification judges on the correspondences alone)
+//   mac_benchmark relocalize MAP TABLE.tsv [--crop HALF_WIDTH] [--peer-iterations N] [--config FILE]
+//                            [--set ...] [--csv FILE] [--limit N]   (queries localized in the map described
+//                            once: TABLE lines "name, query file, true T_map_query"; success = benchmark.*
+//                            criterion; --crop keeps the map's square of that half-width [m] around the
+//                            queries' mean true position; --peer-iterations runs PCL's prerejective RANSAC beside it)
 // dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline LIST]
 //                  [--ransac-iterations N] [--subset NAME] [--limit N]
 // --baseline LIST: comma-separated, of ransac (PCL's RANSAC on our correspondences; the dataset modes'
@@ -51,6 +56,9 @@
 #include "mac_registration/core/text_io.hpp"
 #include "open3d_peer.hpp"
 #include "paper_table.hpp"
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+#include "relocalization_eval.hpp"
+#endif
 #include "synthetic.hpp"
 #include "verification_eval.hpp"
 
@@ -76,7 +84,9 @@ struct Options {
   // verify mode
   bool derived = false, synthetic = false;
   std::vector<double> thresholds{0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9};
-  bool fgr = false;  // --baseline fgr, synthetic and correspondences modes
+  bool fgr = false;         // --baseline fgr, synthetic and correspondences modes
+  double crop = 0.0;        // relocalize mode: --crop HALF_WIDTH [m]
+  int peer_iterations = 0;  // relocalize mode: --peer-iterations N
 };
 
 // The benchmark: section of a preset and --set benchmark.* keys: the success criterion of the recall.
@@ -275,6 +285,10 @@ Options parseOptions(int argc, char** argv) {
       o.subset_name = value();
     else if (arg == "--limit")
       o.limit = std::stoul(value());
+    else if (arg == "--crop")
+      o.crop = std::stod(value());
+    else if (arg == "--peer-iterations")
+      o.peer_iterations = std::stoi(value());
     else if (arg == "--scenes")
       o.scenes = split(value());
     else if (arg == "--benchmarks")
@@ -666,6 +680,24 @@ int runVerify(Options o, bool params_given) {
   return 0;
 }
 
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+int runRelocalize(const Options& o) {
+  if (o.positional.size() != 2) throw std::invalid_argument("relocalize needs MAP TABLE.tsv");
+  RelocalizationSettings settings;
+  settings.config = o.config;
+  settings.max_rotation_deg = o.dataset.criterion.max_rotation_deg;
+  settings.max_translation = o.dataset.criterion.max_translation;
+  settings.crop_half_width = o.crop;
+  settings.peer_iterations = o.peer_iterations;
+  std::vector<RelocalizationQuery> queries = readRelocalizationTable(o.positional[1]);
+  if (o.limit > 0 && queries.size() > o.limit) queries.resize(o.limit);
+  std::ofstream csv;
+  if (!o.csv.empty()) csv = openCsv(o.csv);
+  return runRelocalizationBenchmark(o.positional[0], queries, settings, std::cout,
+                                    csv.is_open() ? &csv : nullptr);
+}
+#endif
+
 }  // namespace
 }  // namespace mac_registration
 
@@ -685,6 +717,8 @@ int main(int argc, char** argv) {
       "                            [--thresholds 0,0.1,...] [dataset options]\n"
       "  mac_benchmark verify [TABLE.tsv|FOLDER|LIST]... [--derived] [--synthetic] [--thresholds 0,0.1,...]\n"
       "                       [--no-cloud-verification] [dataset options]\n"
+      "  mac_benchmark relocalize MAP TABLE.tsv [--crop HALF_WIDTH] [--peer-iterations N] [--config FILE]\n"
+      "                           [--set KEY=VALUE]... [--csv FILE] [--limit N]\n"
       "dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline "
       "ransac,open3d,fgr|none]\n"
       "                 [--ransac-iterations N] [--subset NAME] [--limit N]\n"
@@ -717,6 +751,9 @@ int main(int argc, char** argv) {
     if (mode == "sets") return runSets(options);
     if (mode == "threedmatch") return runThreeDMatch(options);
     if (mode == "verify") return runVerify(options, params_given);
+#ifdef MAC_REGISTRATION_WITH_FEATURES
+    if (mode == "relocalize") return runRelocalize(options);
+#endif
     std::cerr << "mac_benchmark: unknown mode '" << mode << "'\n" << usage;
   } catch (const std::exception& e) {
     std::cerr << "mac_benchmark: " << e.what() << "\n";

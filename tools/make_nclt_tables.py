@@ -8,6 +8,9 @@ Writes into --out:
   loops.tsv      the mapping run's loop closures: keyframe b (source) against keyframe a (target), T = T_ab
   map.tsv        every sixth revisit keyframe against the map of the first pass (T = T_map_query)
   map_first_pass.pcd   keyframes 0-489 under opti_pose_2, voxel-downsampled (what map.tsv's target is)
+  relocalize_single.tsv    each revisit keyframe as a query in that map (mac_benchmark relocalize)
+  relocalize_windows.tsv   each revisit with the keyframes of the seconds before it (up to WINDOW, none of
+                           the first pass) joined into its frame by the odometry (lidar_pose): windows/Q.pcd
 The keyframe files are referenced where they are (their headers say WIDTH 0 HEIGHT 0; mac_registration reads
 them with a warning). Needs numpy and Open3D (python3-open3d) for the map.
 """
@@ -18,6 +21,7 @@ import sys
 import numpy as np
 
 FIRST_PASS_END = 490  # keyframes before the run comes back (MANIFEST.md)
+WINDOW = 16  # keyframes of a window query: about 16 m of travel
 
 
 def matrix_of(x, y, z, qx, qy, qz, qw):
@@ -89,6 +93,45 @@ def build_map(nclt, path, voxel):
     print("wrote %s (%d points, voxel %g m)" % (path, len(cloud.points), voxel))
 
 
+def poses(nclt, first_column):
+    """Each keyframe's pose of the 7 columns from `first_column` (5: lidar_pose, 26: opti_pose_2)."""
+    out = {}
+    with open(os.path.join(nclt, "keyframes.txt")) as f:
+        for line in f:
+            v = line.split()
+            out[int(v[0])] = matrix_of(*map(float, v[first_column:first_column + 7]))
+    return out
+
+
+def write_relocalization_table(path, rows):
+    with open(path, "w") as out:
+        out.write("name\tquery\tT_map_query\n")
+        for row in rows:
+            out.write("\t".join(row) + "\n")
+    print("wrote %s (%d queries)" % (path, len(rows)))
+
+
+def write_windows(nclt, out_dir, revisits):
+    """The window queries: keyframes max(first pass end, q - WINDOW + 1)..q in q's frame, by the odometry."""
+    import open3d as o3d
+    odometry = poses(nclt, 5)
+    os.makedirs(os.path.join(out_dir, "windows"), exist_ok=True)
+    rows = []
+    for q, _, t_map_query, _ in revisits:
+        inverse = np.linalg.inv(odometry[q])
+        points = []
+        for k in range(max(FIRST_PASS_END, q - WINDOW + 1), q + 1):
+            t = inverse @ odometry[k]
+            p = np.asarray(o3d.io.read_point_cloud(keyframe(nclt, k)).points)
+            points.append(p @ t[:3, :3].T + t[:3, 3])
+        cloud = o3d.geometry.PointCloud()
+        cloud.points = o3d.utility.Vector3dVector(np.concatenate(points))
+        path = os.path.abspath(os.path.join(out_dir, "windows", "%d.pcd" % q))
+        o3d.io.write_point_cloud(path, cloud)
+        rows.append(("window %d" % q, path, t_map_query))
+    return rows
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--nclt", default=os.path.join("..", "shared", "data", "nclt"))
@@ -105,6 +148,10 @@ def main():
     write_table(os.path.join(args.out, "map.tsv"),
                 [("map %d" % q, keyframe(args.nclt, q), map_path, t) for q, _, t, _ in revisits[::6]])
     build_map(args.nclt, map_path, args.map_voxel)
+    write_relocalization_table(os.path.join(args.out, "relocalize_single.tsv"),
+                               [("scan %d" % q, keyframe(args.nclt, q), t) for q, _, t, _ in revisits])
+    write_relocalization_table(os.path.join(args.out, "relocalize_windows.tsv"),
+                               write_windows(args.nclt, args.out, revisits))
     return 0
 
 

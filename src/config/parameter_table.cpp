@@ -155,6 +155,13 @@ std::vector<Parameter> makeTable() {
            "d_cmp in cloud resolutions (paper: 10)"),
       count("features.resolution_samples", MAC_FIELD(features.resolution_samples), "points",
             Range::atLeast(100), "query points the cloud resolution is estimated from"),
+      real("relocalization.place_spacing", MAC_FIELD(relocalization.place_spacing), "m",
+           Range::above(0).orAuto("10 x features.voxel_size"),
+           "spacing of the map's candidate places (a grid in the map's x-y plane)"),
+      count("relocalization.max_candidates", MAC_FIELD(relocalization.max_candidates), "places",
+            Range::closed(1, 20), "best-ranked places MAC and the verification run on"),
+      real("relocalization.time_limit", MAC_FIELD(relocalization.time_limit), "s", Range::above(0),
+           "wall time of a query after its description; no further place starts beyond it"),
       [] {
         // One thread count for every parallel stage, core and front end alike.
         const MacParameterRange& core = coreRange("num_threads");
@@ -282,6 +289,7 @@ std::string describeParameter(const ParameterInfo& parameter, const ParameterVal
 std::vector<std::string> validateConfig(const RegistrationConfig& config) {
   std::vector<std::string> problems = validateParams(config.mac, AutoValues::kAccepted);
   for (auto& p : validateFeatureParams(config.features)) problems.push_back(std::move(p));
+  for (auto& p : validateRelocalizationParams(config.relocalization)) problems.push_back(std::move(p));
   return problems;
 }
 

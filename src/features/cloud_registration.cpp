@@ -360,4 +360,12 @@ CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const
       params, mac_params, stop);
 }
 
+CloudRegistrationResult registerDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
+                                                const FeatureParams& feature_params,
+                                                const MacParams& mac_params, const StopFlag* stop) {
+  const FeatureParams params = withVoxel(feature_params, target.params.voxel_size);
+  return registerWith([&] { return matchDescribedClouds(source, target, params, stop); }, params, mac_params,
+                      stop);
+}
+
 }  // namespace mac_registration

@@ -95,26 +95,34 @@ constexpr double kFarthestViewpoint = 10.0;
 // NCLT keyframes); one still moving after 30 is sliding, which the verification weighs.
 constexpr int kFineAlignmentSteps = 30;
 
+Eigen::Vector3f centroid(const PointCloud& cloud) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& p : cloud) sum += p.getVector3fMap().cast<double>();
+  return (sum / double(std::max<std::size_t>(1, cloud.size()))).cast<float>();
+}
+
 }  // namespace
 
 // One cloud as its sensor saw it.
 struct AlignmentJudge::View {
   PointCloud::ConstPtr points;
   pcl::PointCloud<pcl::Normal>::ConstPtr normals;  // per point, or null
-  Eigen::Vector3f viewpoint;
-  float max_range = 0.0f;  // [m] of the farthest point from the viewpoint
-  float min_range = 0.0f;  // [m] of the nearest
-  CloudGrid near_grid;     // the points within tau of a placed point
-  std::unique_ptr<RangeImage> image;
-  // The free-space and seen-on-surface evidence may rest on the viewpoint: it is not more than
-  // kFarthestViewpoint diagonals away from the cloud.
+  // The free-space and seen-on-surface evidence may rest on the viewpoint: one was given (a map's is not
+  // finite: no single place saw it) and it is not more than kFarthestViewpoint diagonals away from the cloud.
+  bool viewpoint_given = true;
   bool viewpoint_used = true;
+  Eigen::Vector3f viewpoint;  // the given one, else the cloud's centroid (ranges for the reach only)
+  float max_range = 0.0f;     // [m] of the farthest point from the viewpoint
+  float min_range = 0.0f;     // [m] of the nearest
+  CloudGrid near_grid;        // the points within tau of a placed point
+  std::unique_ptr<RangeImage> image;
 
   View(const PointCloud::ConstPtr& cloud, const pcl::PointCloud<pcl::Normal>::ConstPtr& cloud_normals,
        const Eigen::Vector3f& from, double tau)
       : points(cloud),
         normals(cloud_normals && cloud_normals->size() == cloud->size() ? cloud_normals : nullptr),
-        viewpoint(from),
+        viewpoint_given(from.allFinite()),
+        viewpoint(viewpoint_given ? from : centroid(*cloud)),
         near_grid(cloudGrid(*cloud, tau)) {
     std::vector<float> ranges;
     ranges.reserve(cloud->size());
@@ -194,8 +202,10 @@ void AlignmentJudge::buildViews() const {
                                      std::pair<View*, const char*>{target_.get(), "target"}}) {
       std::size_t finite = 0;
       view->viewpoint_used =
+          view->viewpoint_given &&
           !(double(view->min_range) > kFarthestViewpoint * finiteDiagonal(*view->points, finite));
-      if (!view->viewpoint_used) viewpoint_warnings_.push_back(viewpointNotUsed(role, *view));
+      if (view->viewpoint_given && !view->viewpoint_used)
+        viewpoint_warnings_.push_back(viewpointNotUsed(role, *view));
     }
   });
 }

@@ -65,7 +65,9 @@ StageTimes withoutDescription(StageTimes times, const StageTimes& described) {
 // drop without a trace, whereas the slot counts what it replaces.
 constexpr std::uint32_t kInputQueueSize = 5;
 
-RegistrationConfig algorithmOf(const ServerConfig& config) { return {config.mac, config.features}; }
+RegistrationConfig algorithmOf(const ServerConfig& config) {
+  return {config.mac, config.features, config.relocalization};
+}
 
 bool sameReconfigurable(const ServerConfig& a, const ServerConfig& b) {
   for (const auto& key : reconfigurableKeys()) {
@@ -253,6 +255,7 @@ void RegistrationServer::onReconfigure(MacRegistrationConfig& c, std::uint32_t) 
   }
   next.mac = algorithm.mac;
   next.features = algorithm.features;
+  next.relocalization = algorithm.relocalization;
   if (sameReconfigurable(current, next)) return;  // e.g. the call that comes with setCallback
   // The private parameters the node read at start say what is in force, as dynamic_reconfigure's own do.
   for (const auto& key : reconfigurableKeys()) {

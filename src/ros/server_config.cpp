@@ -132,10 +132,11 @@ std::vector<std::string> validateNodeParams(const NodeParams& node) {
 
 std::vector<std::string> loadServerConfig(const ros::NodeHandle& nh, ServerConfig& config) {
   std::vector<std::string> problems;
-  RegistrationConfig algorithm{config.mac, config.features};
+  RegistrationConfig algorithm{config.mac, config.features, config.relocalization};
   loadAlgorithmParams(nh, algorithm, problems);
   config.mac = algorithm.mac;
   config.features = algorithm.features;
+  config.relocalization = algorithm.relocalization;
   loadNodeParams(nh, config.node, problems);
   for (auto& p : validateNodeParams(config.node)) problems.push_back(std::move(p));
   for (auto& p : validateConfig(algorithm)) problems.push_back(std::move(p));
@@ -145,7 +146,7 @@ std::vector<std::string> loadServerConfig(const ros::NodeHandle& nh, ServerConfi
 std::string describeConfig(const ServerConfig& c) {
   std::string text;
   for (const auto& p : nodeParameterTable()) text += "  " + describeParameter(p, p.get(c.node)) + "\n";
-  return text + describeConfig(RegistrationConfig{c.mac, c.features});
+  return text + describeConfig(RegistrationConfig{c.mac, c.features, c.relocalization});
 }
 
 }  // namespace mac_registration

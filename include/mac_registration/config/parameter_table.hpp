@@ -11,14 +11,17 @@
 #include <vector>
 
 #include "mac_registration/config/feature_params.hpp"
+#include "mac_registration/config/relocalization_params.hpp"
 #include "mac_registration/core/parameters.hpp"
 
 namespace mac_registration {
 
-// Everything the registration reads: the MAC core's parameters and the PCL front end's.
+// Everything the registration reads: the MAC core's parameters, the PCL front end's and the map
+// relocalization's.
 struct RegistrationConfig {
   MacParams mac;
   FeatureParams features;
+  RelocalizationParams relocalization;
 };
 
 enum class ParameterType {

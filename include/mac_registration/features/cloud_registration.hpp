@@ -132,4 +132,9 @@ CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const
                                                  const FeatureParams& feature_params,
                                                  const MacParams& mac_params, const StopFlag* stop = nullptr);
 
+// The same with both clouds described before (a query matched against several places of a map).
+CloudRegistrationResult registerDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
+                                                const FeatureParams& feature_params,
+                                                const MacParams& mac_params, const StopFlag* stop = nullptr);
+
 }  // namespace mac_registration

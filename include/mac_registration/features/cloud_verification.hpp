@@ -28,7 +28,8 @@ class AlignmentJudge : public PoseWitness {
   // margin of the free-space test. `num_threads` 0 = OpenMP's default; the signals do not depend on it.
   // A cloud's viewpoint (features' source_viewpoint / target_viewpoint) is not used where the cloud's
   // nearest keypoint lies more than ten cloud diagonals from it (a world or map frame's origin, not a
-  // sensor); that view then gives no free-space or seen-on-surface evidence. Keeps the keypoints and
+  // sensor); that view then gives no free-space or seen-on-surface evidence. Nor does a viewpoint that is
+  // not finite: a map's, which no single place saw. Keeps the keypoints and
   // normals of `features` (shared pointers), not the rest.
   AlignmentJudge(const FeatureCorrespondences& features, double tau, int num_threads = 0);
   ~AlignmentJudge() override;

@@ -42,6 +42,7 @@ struct ServerConfig {
   NodeParams node;
   FeatureParams features;
   MacParams mac;
+  RelocalizationParams relocalization;
 };
 
 // Reads the private parameters (sections graph/, cliques/, selection/, hypotheses/, evaluation/,

@@ -1,0 +1,76 @@
+// mac_relocalize as a user runs it: exit status 0 / 1 / 2, the pose written to --out, the reason on stderr.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include "cli_run.hpp"
+#include "mac_registration/core/pose_error.hpp"
+#include "mac_registration/core/text_io.hpp"
+#include "temp_dir.hpp"
+
+namespace mac_registration {
+namespace {
+
+using test::CliRun;
+using test::runTool;
+using test::TempDir;
+
+CliRun run(const std::string& arguments) { return runTool(MAC_RELOCALIZE_BIN, arguments); }
+
+std::string dataPath(const std::string& name) { return std::string(MAC_DATA_DIR) + "/" + name; }
+const std::string kPreset = " --config " + std::string(MAC_CONFIG_DIR) + "/map_relocalization.yaml";
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(MacRelocalizeCli, BadArgumentsExitTwo) {
+  CliRun r = run("");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "usage:")) << r.output;
+  r = run(dataPath("lidar/lidar_target_251370668.pcd") + " " + dataPath("lidar/lidar_source_251371071.pcd") +
+          " --set relocalization.max_candidates=0");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "relocalization.max_candidates")) << r.output;
+  TempDir dir;
+  r = run(dir.file("no_map.pcd") + " " + dataPath("lidar/lidar_source_251371071.pcd"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "no_map.pcd")) << r.output;
+  // A map's keypoint spacing is given, not derived from its extent.
+  r = run(dataPath("lidar/lidar_target_251370668.pcd") + " " + dataPath("lidar/lidar_source_251371071.pcd") +
+          kPreset + " --set features.voxel_size=auto");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(contains(r.output, "voxel_size")) << r.output;
+}
+
+TEST(MacRelocalizeCli, AScanOfTheMappedPlaceIsLocalized) {
+  TempDir dir;
+  const CliRun r =
+      run(dataPath("lidar/lidar_target_251370668.pcd") + " " + dataPath("lidar/lidar_source_251371071.pcd") +
+          kPreset + " --out " + dir.file("T.txt"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "T_map_query:")) << r.output;
+  EXPECT_TRUE(contains(r.output, "places (best-ranked first):")) << r.output;
+  EXPECT_TRUE(contains(r.output, "described in")) << r.output;
+  const Eigen::Isometry3d written = readTransformFile(dir.file("T.txt"));
+  const Eigen::Isometry3d reference =
+      readTransformFile(dataPath("lidar/lidar_T_target_source_reference.txt"));
+  EXPECT_LT(rotationErrorDeg(written, reference), 1.0);
+  EXPECT_LT(translationError(written, reference), 0.2);
+}
+
+TEST(MacRelocalizeCli, AQueryTheMapCannotPlaceExitsOneAndWritesNothing) {
+  // A 3 m room against a street: at 0.5 m voxels it holds a few dozen keypoints and matches nowhere.
+  TempDir dir;
+  const CliRun r =
+      run(dataPath("lidar/lidar_target_251370668.pcd") + " " +
+          dataPath("redkitchen_4_0/target_cloud_bin_0.pcd") + kPreset + " --out " + dir.file("T.txt"));
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(contains(r.output, "not localized")) << r.output;
+  EXPECT_TRUE(contains(r.output, "not verified")) << r.output;
+  EXPECT_FALSE(std::ifstream(dir.file("T.txt")).good());
+}
+
+}  // namespace
+}  // namespace mac_registration
