@@ -1,5 +1,6 @@
-// The standalone node: loads the nodelet in-process, so `rosrun mac_registration registration_node` and a
-// nodelet manager run the same code, parameter checks and log lines included.
+// The standalone nodes: each loads its nodelet in-process (MAC_NODELET_TYPE: registration_node the
+// registration nodelet, relocalization_node the relocalization one), so `rosrun mac_registration
+// registration_node` and a nodelet manager run the same code, parameter checks and log lines included.
 #include <nodelet/loader.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -47,8 +48,7 @@ int main(int argc, char** argv) {
   nodelet::Loader loader(false);  // no load/unload services: this process runs one nodelet
   nodelet::M_string remappings(ros::names::getRemappings().begin(), ros::names::getRemappings().end());
   nodelet::V_string arguments(argv + 1, argv + argc);
-  if (!loader.load(ros::this_node::getName(), "mac_registration/RegistrationNodelet", remappings,
-                   arguments)) {
+  if (!loader.load(ros::this_node::getName(), MAC_NODELET_TYPE, remappings, arguments)) {
     // The nodelet has logged why (invalid parameters, each named); standalone, refusing means exiting.
     ROS_FATAL("mac_registration: %s not started", ros::this_node::getName().c_str());
     return 1;

@@ -57,8 +57,12 @@ Eigen::Vector3d finiteMean(const PointCloud& cloud) {
   return n > 0 ? Eigen::Vector3d(sum / double(n)) : Eigen::Vector3d::Zero();
 }
 
-// The subset of the map's description at `indices`: a place as registerDescribedClouds takes a target.
-DescribedCloud placeCloud(const DescribedCloud& map, const std::vector<int>& indices) {
+// The subset of the map's description at `indices`, moved by -`offset`: a place as registerDescribedClouds
+// takes a target, in coordinates of its own. The fine alignment linearizes its rotation about the target
+// frame's origin: a place kilometres from the map's mean would leave its normal equations ill-conditioned
+// (on a 5 x 2 km map, a right pose's position came out 4.6 m uncertain instead of 1 cm).
+DescribedCloud placeCloud(const DescribedCloud& map, const std::vector<int>& indices,
+                          const Eigen::Vector3f& offset) {
   DescribedCloud place;
   place.params = map.params;
   place.keypoints.reset(new PointCloud);
@@ -68,7 +72,9 @@ DescribedCloud placeCloud(const DescribedCloud& map, const std::vector<int>& ind
   place.normals->reserve(indices.size());
   place.descriptors->reserve(indices.size());
   for (const int i : indices) {
-    place.keypoints->push_back((*map.keypoints)[i]);
+    pcl::PointXYZ p = (*map.keypoints)[i];
+    p.getVector3fMap() -= offset;
+    place.keypoints->push_back(p);
     place.normals->push_back((*map.normals)[i]);
     place.descriptors->push_back((*map.descriptors)[i]);
   }
@@ -376,7 +382,6 @@ RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query
   ranked.resize(std::min(ranked.size(), std::max(params.max_candidates, kReportedPlaces)));
   out.ranking_ms = millisecondsSince(ranking_start);
 
-  const Eigen::Translation3d to_map(map.origin);
   const double margin = out.query_radius + map.cell_size;
   const auto registration_start = Clock::now();
   for (std::size_t k = 0; k < ranked.size(); ++k) {
@@ -393,10 +398,12 @@ RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query
     candidate.keypoints = indices.size();
     const bool in_time = k == 0 || millisecondsSince(registration_start) < 1e3 * params.time_limit;
     if (k < params.max_candidates && in_time && indices.size() >= 3 && !stopRequested(stop)) {
+      const Eigen::Vector3f offset(float(centre.x()), float(centre.y()), 0.0f);
       candidate.registration =
-          registerDescribedClouds(described, placeCloud(map.cloud, indices), features, mac, stop);
+          registerDescribedClouds(described, placeCloud(map.cloud, indices, offset), features, mac, stop);
       candidate.registered = true;
-      candidate.T_map_query = to_map * candidate.registration.registration.T_target_source;
+      candidate.T_map_query = Eigen::Translation3d(map.origin + offset.cast<double>()) *
+                              candidate.registration.registration.T_target_source;
     }
     out.candidates.push_back(std::move(candidate));
   }

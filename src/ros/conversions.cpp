@@ -191,6 +191,14 @@ Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg) {
   return T;
 }
 
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T) {
+  const geometry_msgs::Transform t = toTransformMsg(T);
+  geometry_msgs::Pose pose;
+  pose.position.x = t.translation.x, pose.position.y = t.translation.y, pose.position.z = t.translation.z;
+  pose.orientation = t.rotation;
+  return pose;
+}
+
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T) {
   geometry_msgs::Transform msg;
   msg.translation.x = T.translation().x();

@@ -143,6 +143,13 @@ std::vector<std::string> loadServerConfig(const ros::NodeHandle& nh, ServerConfi
   return problems;
 }
 
+std::vector<std::string> loadRegistrationConfig(const ros::NodeHandle& nh, RegistrationConfig& config) {
+  std::vector<std::string> problems;
+  loadAlgorithmParams(nh, config, problems);
+  for (auto& p : validateConfig(config)) problems.push_back(std::move(p));
+  return problems;
+}
+
 std::string describeConfig(const ServerConfig& c) {
   std::string text;
   for (const auto& p : nodeParameterTable()) text += "  " + describeParameter(p, p.get(c.node)) + "\n";

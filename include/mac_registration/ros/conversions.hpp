@@ -1,5 +1,6 @@
 #pragma once
 
+#include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Transform.h>
 #include <mac_registration/Correspondences.h>
 #include <mac_registration/RegistrationResult.h>
@@ -39,6 +40,8 @@ mac_registration::Correspondences toCorrespondencesMsg(const CorrespondenceSet& 
                                                        const std::string& source_frame);
 
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T);
+// The same as a pose (position and orientation).
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T);
 Eigen::Isometry3d toIsometry(const geometry_msgs::Transform& msg);
 
 // RegistrationResult.status of a core outcome: the same number (the message's constants mirror the enum).

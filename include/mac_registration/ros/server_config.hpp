@@ -54,4 +54,9 @@ std::vector<std::string> loadServerConfig(const ros::NodeHandle& private_nh, Ser
 // start-up log.
 std::string describeConfig(const ServerConfig& config);
 
+// The algorithm's parameters alone (every table key from ~section/name), read over the values in `config`
+// and checked: every problem, each naming its parameter; empty when usable.
+std::vector<std::string> loadRegistrationConfig(const ros::NodeHandle& private_nh,
+                                                RegistrationConfig& config);
+
 }  // namespace mac_registration
