@@ -23,7 +23,8 @@
 //                            [--set ...] [--csv FILE] [--limit N]   (queries localized in the map described
 //                            once: TABLE lines "name, query file, true T_map_query"; success = benchmark.*
 //                            criterion; --crop keeps the map's square of that half-width [m] around the
-//                            queries' mean true position; --peer-iterations runs PCL's prerejective RANSAC beside it)
+//                            queries' mean true position; --peer-iterations runs PCL's prerejective RANSAC
+//                            beside it)
 // dataset options: [--config FILE] [--set KEY=VALUE]... [--csv FILE] [--baseline LIST]
 //                  [--ransac-iterations N] [--subset NAME] [--limit N]
 // --baseline LIST: comma-separated, of ransac (PCL's RANSAC on our correspondences; the dataset modes'

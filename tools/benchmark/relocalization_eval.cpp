@@ -87,7 +87,7 @@ int runRelocalizationBenchmark(const std::string& map_path, const std::vector<Re
     *csv << "name,outcome,right,rotation_error_deg,translation_error_m,confidence,chosen,truth_rank,"
             "registered,query_keypoints,query_radius_m,describe_ms,ranking_ms,registration_ms,total_ms,"
             "inliers,"
-            "fine_converged,fine_move,std_translation_m,std_rotation_deg\n";
+            "fine_converged,fine_move,std_translation_m,std_rotation_deg,rival_place_ratio\n";
   }
   std::size_t right = 0, wrong = 0, unverified = 0, ambiguous = 0, truth_in_candidates = 0;
   std::vector<double> times;
@@ -158,8 +158,16 @@ int runRelocalizationBenchmark(const std::string& map_path, const std::vector<Re
         *csv << "," << m.counters.inliers << "," << m.fine_alignment.converged << ","
              << m.fine_alignment.displacement << "," << std::sqrt(c.diagonal().head<3>().maxCoeff()) << ","
              << std::sqrt(c.diagonal().tail<3>().maxCoeff()) * 180.0 / M_PI;
+        // The best score of a place farther than the query's reach from the pose found, over the chosen
+        // one's.
+        double rival = 0.0;
+        for (const auto& other : r.candidates) {
+          if ((other.centre - r.T_map_query.translation()).head<2>().norm() > r.query_radius)
+            rival = std::max(rival, other.score);
+        }
+        *csv << "," << rival / std::max(1.0, r.candidates[r.chosen].score);
       } else {
-        *csv << ",,,,,";
+        *csv << ",,,,,,";
       }
       *csv << "\n";
     }
