@@ -11,6 +11,7 @@
 #include "mac_registration/core/mac_registration.hpp"
 #include "mac_registration/core/text_io.hpp"
 #include "result_report.hpp"
+#include "tool_arguments.hpp"
 #ifdef MAC_REGISTRATION_WITH_FEATURES
 #include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/cloud_registration.hpp"
@@ -40,30 +41,24 @@ struct Options {
 
 Options parseArguments(int argc, char** argv) {
   Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(arg + " needs a value");
-      return argv[++i];
-    };
-    if (arg == "--correspondences")
-      options.correspondences = value();
-    else if (arg == "--config")
-      options.config = value();
-    else if (arg == "--out")
-      options.out = value();
-    else if (arg == "--save-correspondences")
-      options.save_correspondences = value();
-    else if (arg == "--set")
-      options.overrides.push_back(value());
-    else if (arg == "-h" || arg == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (!arg.empty() && arg[0] == '-')
-      throw std::invalid_argument("unknown option '" + arg + "'");
-    else
-      options.clouds.push_back(arg);
+  const mac_registration::ToolArguments common = mac_registration::parseToolArguments(
+      argc, argv, [&](const std::string& option, const std::function<std::string()>& value) {
+        if (option == "--correspondences")
+          options.correspondences = value();
+        else if (option == "--save-correspondences")
+          options.save_correspondences = value();
+        else
+          return false;
+        return true;
+      });
+  if (common.help) {
+    std::cout << kUsage;
+    std::exit(0);
   }
+  options.clouds = common.positional;
+  options.config = common.config;
+  options.out = common.out;
+  options.overrides = common.overrides;
   if (options.correspondences.empty() == options.clouds.empty()) {
     throw std::invalid_argument(options.clouds.empty()
                                     ? "give SOURCE TARGET or --correspondences FILE"

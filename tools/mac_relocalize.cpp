@@ -11,6 +11,7 @@
 #include "mac_registration/features/cloud_io.hpp"
 #include "mac_registration/features/map_relocalization.hpp"
 #include "result_report.hpp"
+#include "tool_arguments.hpp"
 
 namespace {
 
@@ -24,38 +25,16 @@ constexpr const char* kUsage =
     "exit status: 0 localized and verified, 1 not localized or ambiguous (reason printed), 2 bad arguments,\n"
     "unreadable or unusable input\n";
 
-struct Options {
-  std::vector<std::string> clouds;
-  std::string config, out;
-  std::vector<std::string> overrides;
-};
-
-Options parseArguments(int argc, char** argv) {
-  Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(arg + " needs a value");
-      return argv[++i];
-    };
-    if (arg == "--config")
-      options.config = value();
-    else if (arg == "--out")
-      options.out = value();
-    else if (arg == "--set")
-      options.overrides.push_back(value());
-    else if (arg == "-h" || arg == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (!arg.empty() && arg[0] == '-')
-      throw std::invalid_argument("unknown option '" + arg + "'");
-    else
-      options.clouds.push_back(arg);
+mac_registration::ToolArguments parseArguments(int argc, char** argv) {
+  mac_registration::ToolArguments arguments = mac_registration::parseToolArguments(argc, argv);
+  if (arguments.help) {
+    std::cout << kUsage;
+    std::exit(0);
   }
-  if (options.clouds.size() != 2)
+  if (arguments.positional.size() != 2)
     throw std::invalid_argument("expected two clouds, MAP and QUERY, got " +
-                                std::to_string(options.clouds.size()));
-  return options;
+                                std::to_string(arguments.positional.size()));
+  return arguments;
 }
 
 void printCandidates(std::ostream& out, const mac_registration::RelocalizationResult& result) {
@@ -79,7 +58,7 @@ void printCandidates(std::ostream& out, const mac_registration::RelocalizationRe
 
 int main(int argc, char** argv) {
   using namespace mac_registration;
-  Options options;
+  ToolArguments options;
   RegistrationConfig config;
   PointCloud::Ptr map, query;
   try {
@@ -94,8 +73,8 @@ int main(int argc, char** argv) {
       for (const auto& warning : warnings) std::cerr << "mac_relocalize: warning: " << warning << "\n";
       return cloud;
     };
-    map = load(options.clouds[0]);
-    query = load(options.clouds[1]);
+    map = load(options.positional[0]);
+    query = load(options.positional[1]);
   } catch (const std::exception& e) {
     std::cerr << "mac_relocalize: " << e.what() << "\n" << kUsage;
     return 2;

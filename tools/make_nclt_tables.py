@@ -39,12 +39,12 @@ def row_major(t):
     return " ".join("%.9f" % v for v in np.asarray(t).reshape(-1))
 
 
-def write_table(path, rows):
+def write_table(path, rows, header="name\tsource_file\ttarget_file\tT", what="pairs"):
     with open(path, "w") as out:
-        out.write("name\tsource_file\ttarget_file\tT\n")
+        out.write(header + "\n")
         for row in rows:
             out.write("\t".join(row) + "\n")
-    print("wrote %s (%d pairs)" % (path, len(rows)))
+    print("wrote %s (%d %s)" % (path, len(rows), what))
 
 
 def keyframe(nclt, index):
@@ -105,11 +105,7 @@ def poses(nclt, first_column):
 
 
 def write_relocalization_table(path, rows):
-    with open(path, "w") as out:
-        out.write("name\tquery\tT_map_query\n")
-        for row in rows:
-            out.write("\t".join(row) + "\n")
-    print("wrote %s (%d queries)" % (path, len(rows)))
+    write_table(path, rows, "name\tquery\tT_map_query", "queries")
 
 
 def write_windows(nclt, out_dir, revisits):
