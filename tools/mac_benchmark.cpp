@@ -433,57 +433,6 @@ int runCompare(const Options& o) {
   return ok ? 0 : 1;
 }
 
-std::string describeMethod(const MethodOutcome& m) {
-  std::ostringstream text;
-  text << m.method << " " << (m.recalled ? "ok  " : "MISS");
-  if (!std::isnan(m.rotation_error_deg))
-    text << std::fixed << std::setprecision(1) << " RE " << m.rotation_error_deg << " TE "
-         << m.translation_error * 100.0 << "cm";
-  if (!m.registered) text << " (" << m.status << ")";
-  text << std::fixed << std::setprecision(0) << " " << m.times.total_ms << "ms";
-  return text.str();
-}
-
-// What a reader of the table needs to reproduce it: the front end, MAC's main knobs and the baseline.
-void printSettings(std::ostream& out, const Options& o, bool baseline) {
-  const FeatureParams& f = o.config.features;
-  const GraphParams& g = o.config.mac.graph;
-  out << "front end: voxel " << f.voxel_size << " m, normal radius " << f.normal_radius_factor * f.voxel_size
-      << " m, FPFH radius " << f.feature_radius_factor * f.voxel_size << " m, max " << f.max_correspondences
-      << " correspondences, mutual " << (f.mutual_filter ? "on" : "off") << ", ratio test " << f.ratio_test
-      << "\n";
-  out << "MAC: " << (g.score == CompatibilityScore::kGaussian ? "gaussian" : "quadratic") << " score, sigma ";
-  if (f.gaussian_sigma_resolutions > 0)
-    out << f.gaussian_sigma_resolutions << " x resolution";
-  else
-    out << g.gaussian_sigma << " m";
-  out << ", t_cmp " << g.t_cmp << ", tau " << o.config.mac.evaluation.inlier_threshold << " m\n";
-  out << "baseline: ";
-  if (baseline)
-    out << "RANSAC (PCL), at most " << o.dataset.ransac_max_iterations << " iterations\n";
-  else
-    out << (o.dataset.baseline ? "none (this build has no PCL)" : "none") << "\n";
-  if (o.dataset.open3d) {
-    const double v = f.voxel_size;
-    out << "peer: Open3D's pipeline on the same clouds (tools/benchmark/open3d_baseline.py): voxel " << v
-        << " m, normals in " << 2 * v << " m (max 30 neighbours), FPFH in " << 5 * v
-        << " m (max 100), RANSAC on FPFH matches: mutual filter, distance " << 1.5 * v
-        << " m, edge-length 0.9 and distance checkers, at most 100000 iterations, confidence 0.999, seed 1\n";
-  }
-}
-
-void printProgress(std::ostream& out, std::size_t k, std::size_t count, const PairOutcome& r) {
-  out << "[" << std::setw(3) << k + 1 << "/" << count << "] " << r.name << " (" << r.subset << ")";
-  if (!r.error.empty()) {
-    out << " ERROR: " << r.error << std::endl;
-    return;
-  }
-  out << " " << r.correspondences << " corr, " << std::fixed << std::setprecision(1) << 100.0 * r.inlier_ratio
-      << "% inliers, front end " << std::setprecision(0) << r.front_end.frontEndMs() << "ms";
-  for (const MethodOutcome& m : r.methods) out << " | " << describeMethod(m);
-  out << std::endl;
-}
-
 // With `paper_table`, also the MAC paper's table per benchmark and scene, and the successes at each of
 // --thresholds.
 int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& source,
@@ -503,7 +452,7 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
   if (o.fgr) throw std::invalid_argument("--baseline fgr is for the synthetic and correspondences modes");
   if (o.dataset.open3d) requireOpen3d(o.dataset.open3d_settings);
   std::cout << "dataset: " << source << ", " << pairs.size() << " pairs\n";
-  printSettings(std::cout, o, baseline);
+  printDatasetSettings(std::cout, o.config, o.dataset, baseline);
   o.dataset.mac = o.config.mac;
   o.dataset.features = o.config.features;
   o.dataset.baseline = baseline;
@@ -513,7 +462,7 @@ int runDataset(Options o, std::vector<BenchmarkPair> pairs, const std::string& s
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     outcomes.push_back(runBenchmarkPair(pairs[k], o.dataset));
     errors += !outcomes.back().error.empty();
-    printProgress(std::cerr, k, pairs.size(), outcomes.back());
+    printPairProgress(std::cerr, k, pairs.size(), outcomes.back());
   }
   std::cout << "\n";
   printSummary(std::cout, summarize(outcomes), o.dataset.criterion);
@@ -619,24 +568,6 @@ int runSets(const Options& o) {
   return runDataset(o, readCorrespondenceSets(o.positional[0]), o.positional[0]);
 }
 
-// Prints one progress line per case.
-void printCase(std::ostream& out, const VerificationCase& c) {
-  out << c.name << " [" << c.kind << (c.answerable ? "" : ", no answer") << "] ";
-  if (!c.error.empty()) {
-    out << "ERROR: " << c.error << std::endl;
-    return;
-  }
-  const MacResult& r = c.result;
-  out << std::fixed << std::setprecision(2) << (r.success ? "success" : toString(r.status)) << " conf "
-      << r.confidence;
-  if (c.registered && c.has_truth)
-    out << std::setprecision(1) << " RE " << c.rotation_error_deg << " TE " << 100 * c.translation_error
-        << "cm " << (c.correct ? "right" : "WRONG");
-  out << std::setprecision(2) << " | " << r.message << " | verify " << r.times.verification_ms << "ms of "
-      << r.times.total_ms << std::endl;
-  out.unsetf(std::ios::fixed);
-}
-
 int runVerify(Options o, bool params_given) {
   std::vector<BenchmarkPair> pairs;
   for (const std::string& source : o.positional) {
@@ -652,7 +583,7 @@ int runVerify(Options o, bool params_given) {
   std::vector<VerificationCase> cases;
   for (const BenchmarkPair& pair : pairs) {
     for (VerificationCase& c : runVerificationPair(pair, o.dataset, o.derived)) {
-      printCase(std::cerr, c);
+      printVerificationCase(std::cerr, c);
       cases.push_back(std::move(c));
     }
   }
@@ -664,7 +595,7 @@ int runVerify(Options o, bool params_given) {
     }
     for (VerificationCase& c :
          runSyntheticVerification(readAsciiPlyMesh(o.mesh), o.sizes, o.ratios, o.noise, o.repeats, mac)) {
-      printCase(std::cerr, c);
+      printVerificationCase(std::cerr, c);
       cases.push_back(std::move(c));
     }
   }

@@ -175,4 +175,33 @@ PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings&
   return outcome;
 }
 
+// What a reader of the table needs to reproduce it: the front end, MAC's main knobs and the baseline.
+void printDatasetSettings(std::ostream& out, const RegistrationConfig& config,
+                          const BenchmarkSettings& dataset, bool baseline) {
+  const FeatureParams& f = config.features;
+  const GraphParams& g = config.mac.graph;
+  out << "front end: voxel " << f.voxel_size << " m, normal radius " << f.normal_radius_factor * f.voxel_size
+      << " m, FPFH radius " << f.feature_radius_factor * f.voxel_size << " m, max " << f.max_correspondences
+      << " correspondences, mutual " << (f.mutual_filter ? "on" : "off") << ", ratio test " << f.ratio_test
+      << "\n";
+  out << "MAC: " << (g.score == CompatibilityScore::kGaussian ? "gaussian" : "quadratic") << " score, sigma ";
+  if (f.gaussian_sigma_resolutions > 0)
+    out << f.gaussian_sigma_resolutions << " x resolution";
+  else
+    out << g.gaussian_sigma << " m";
+  out << ", t_cmp " << g.t_cmp << ", tau " << config.mac.evaluation.inlier_threshold << " m\n";
+  out << "baseline: ";
+  if (baseline)
+    out << "RANSAC (PCL), at most " << dataset.ransac_max_iterations << " iterations\n";
+  else
+    out << (dataset.baseline ? "none (this build has no PCL)" : "none") << "\n";
+  if (dataset.open3d) {
+    const double v = f.voxel_size;
+    out << "peer: Open3D's pipeline on the same clouds (tools/benchmark/open3d_baseline.py): voxel " << v
+        << " m, normals in " << 2 * v << " m (max 30 neighbours), FPFH in " << 5 * v
+        << " m (max 100), RANSAC on FPFH matches: mutual filter, distance " << 1.5 * v
+        << " m, edge-length 0.9 and distance checkers, at most 100000 iterations, confidence 0.999, seed 1\n";
+  }
+}
+
 }  // namespace mac_registration

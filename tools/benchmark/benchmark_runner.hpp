@@ -2,10 +2,12 @@
 
 #include <functional>
 #include <memory>
+#include <ostream>
 
 #include "benchmark_datasets.hpp"
 #include "benchmark_table.hpp"
 #include "mac_registration/config/feature_params.hpp"
+#include "mac_registration/config/parameter_table.hpp"
 #include "mac_registration/core/correspondence_set.hpp"
 #include "mac_registration/core/mac_result.hpp"
 #include "mac_registration/core/parameters.hpp"
@@ -58,5 +60,10 @@ PreparedPair preparePair(const BenchmarkPair& pair, const BenchmarkSettings& set
 // peak memory is the process's peak from reading the clouds to MAC's result. Never throws: a pair that cannot
 // be run comes back with `error` set and no method outcomes.
 PairOutcome runBenchmarkPair(const BenchmarkPair& pair, const BenchmarkSettings& settings);
+
+// What a reader of a dataset table needs to reproduce it: the front end, MAC's main knobs, the baseline and
+// the Open3D peer's settings.
+void printDatasetSettings(std::ostream& out, const RegistrationConfig& config,
+                          const BenchmarkSettings& dataset, bool baseline);
 
 }  // namespace mac_registration

@@ -316,4 +316,31 @@ void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcome
   }
 }
 
+namespace {
+
+std::string describeMethod(const MethodOutcome& m) {
+  std::ostringstream text;
+  text << m.method << " " << (m.recalled ? "ok  " : "MISS");
+  if (!std::isnan(m.rotation_error_deg))
+    text << std::fixed << std::setprecision(1) << " RE " << m.rotation_error_deg << " TE "
+         << m.translation_error * 100.0 << "cm";
+  if (!m.registered) text << " (" << m.status << ")";
+  text << std::fixed << std::setprecision(0) << " " << m.times.total_ms << "ms";
+  return text.str();
+}
+
+}  // namespace
+
+void printPairProgress(std::ostream& out, std::size_t k, std::size_t count, const PairOutcome& r) {
+  out << "[" << std::setw(3) << k + 1 << "/" << count << "] " << r.name << " (" << r.subset << ")";
+  if (!r.error.empty()) {
+    out << " ERROR: " << r.error << std::endl;
+    return;
+  }
+  out << " " << r.correspondences << " corr, " << std::fixed << std::setprecision(1) << 100.0 * r.inlier_ratio
+      << "% inliers, front end " << std::setprecision(0) << r.front_end.frontEndMs() << "ms";
+  for (const MethodOutcome& m : r.methods) out << " | " << describeMethod(m);
+  out << std::endl;
+}
+
 }  // namespace mac_registration

@@ -109,4 +109,8 @@ void printPeerComparison(std::ostream& out, const std::vector<PairOutcome>& outc
 // tools/plot_benchmark.py reads.
 void writeOutcomesCsv(std::ostream& out, const std::vector<PairOutcome>& outcomes);
 
+// One progress line of pair k of `count`: its correspondences, inlier ratio, front-end time and each
+// method's outcome.
+void printPairProgress(std::ostream& out, std::size_t k, std::size_t count, const PairOutcome& r);
+
 }  // namespace mac_registration

@@ -304,4 +304,21 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
   }
 }
 
+void printVerificationCase(std::ostream& out, const VerificationCase& c) {
+  out << c.name << " [" << c.kind << (c.answerable ? "" : ", no answer") << "] ";
+  if (!c.error.empty()) {
+    out << "ERROR: " << c.error << std::endl;
+    return;
+  }
+  const MacResult& r = c.result;
+  out << std::fixed << std::setprecision(2) << (r.success ? "success" : toString(r.status)) << " conf "
+      << r.confidence;
+  if (c.registered && c.has_truth)
+    out << std::setprecision(1) << " RE " << c.rotation_error_deg << " TE " << 100 * c.translation_error
+        << "cm " << (c.correct ? "right" : "WRONG");
+  out << std::setprecision(2) << " | " << r.message << " | verify " << r.times.verification_ms << "ms of "
+      << r.times.total_ms << std::endl;
+  out.unsetf(std::ios::fixed);
+}
+
 }  // namespace mac_registration

@@ -98,4 +98,7 @@ void printCasesByKind(std::ostream& out, const std::vector<VerificationCase>& ca
 // One row per case: its labels, outcome, confidence and every signal.
 void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>& cases);
 
+// One progress line of a case: its kind, outcome, confidence, errors against the truth and times.
+void printVerificationCase(std::ostream& out, const VerificationCase& c);
+
 }  // namespace mac_registration
