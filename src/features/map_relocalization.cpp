@@ -130,10 +130,17 @@ struct RankedPlace {
   double votes = 0.0;
 };
 
-// Places scored by the votes within the query's reach beyond the share of the map's keypoints there, best
-// first, each at least the reach from every better one.
+bool insideArea(const DescribedMap& map, int column, int row, const SearchArea* area) {
+  if (!area) return true;
+  const Eigen::Vector2d centre =
+      map.origin.head<2>() + map.low + map.cell_size * Eigen::Vector2d(column + 0.5, row + 0.5);
+  return (centre - area->centre).norm() <= area->radius;
+}
+
+// Places (within `area`, when given) scored by the votes within the query's reach beyond the share of the
+// map's keypoints there, best first, each at least the reach from every better one.
 std::vector<RankedPlace> rankPlaces(const DescribedMap& map, const std::vector<double>& votes, double reach,
-                                    std::size_t wanted) {
+                                    std::size_t wanted, const SearchArea* area) {
   std::vector<double> keypoints(map.cell_keypoints.size());
   for (std::size_t i = 0; i < keypoints.size(); ++i) keypoints[i] = double(map.cell_keypoints[i].size());
   const SquareSums vote_sums(votes, map.columns, map.rows), keypoint_sums(keypoints, map.columns, map.rows);
@@ -143,7 +150,8 @@ std::vector<RankedPlace> rankPlaces(const DescribedMap& map, const std::vector<d
   std::vector<RankedPlace> all;
   for (int r = 0; r < map.rows; ++r) {
     for (int c = 0; c < map.columns; ++c) {
-      if (map.cell_keypoints[std::size_t(r) * map.columns + c].empty()) continue;
+      if (map.cell_keypoints[std::size_t(r) * map.columns + c].empty() || !insideArea(map, c, r, area))
+        continue;
       RankedPlace place;
       place.column = c;
       place.row = r;
@@ -413,7 +421,7 @@ const char* toString(RelocalizationOutcome outcome) {
 
 RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query, const FeatureParams& given,
                                 const MacParams& mac, const RelocalizationParams& params,
-                                const StopFlag* stop) {
+                                const StopFlag* stop, const SearchArea* area) {
   const auto start = Clock::now();
   RelocalizationResult out;
   const auto finish = [&](RelocalizationOutcome outcome, const std::string& message) {
@@ -427,6 +435,8 @@ RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query
   if (features.voxel_size == 0.0) features.voxel_size = map.cloud.params.voxel_size;
   std::vector<std::string> problems = validateRelocalizationParams(params);
   for (auto& p : validateFeatureParams(features)) problems.push_back(std::move(p));
+  if (area && !(area->centre.allFinite() && area->radius > 0.0))
+    problems.push_back("the search area needs a finite centre and a radius > 0 [m]");
   if (!problems.empty()) return finish(RelocalizationOutcome::kInvalidInput, problems.front());
   if (!map.cloud.keypoints || map.cloud.keypoints->empty())
     return finish(RelocalizationOutcome::kInvalidInput, "the map has no keypoints");
@@ -459,7 +469,9 @@ RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query
     return finish(RelocalizationOutcome::kCancelled, e.what());
   }
   out.query_radius = queryReach(*described.keypoints);
-  std::vector<RankedPlace> ranked = rankPlaces(map, cell_votes, out.query_radius, kShortlist);
+  std::vector<RankedPlace> ranked = rankPlaces(map, cell_votes, out.query_radius, kShortlist, area);
+  if (ranked.empty() && area)
+    return finish(RelocalizationOutcome::kNotLocalized, "no place of the map lies within the search area");
   const double tau = mac.evaluation.inlier_threshold > 0.0 ? mac.evaluation.inlier_threshold
                                                            : kInlierThresholdVoxels * features.voxel_size;
   rescoreByRigidity(map, votes, out.query_radius, tau, ranked);

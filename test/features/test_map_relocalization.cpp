@@ -146,6 +146,32 @@ TEST(MapRelocalization, TwoAlikePlacesAreAmbiguous) {
   EXPECT_GE(confirmed, 2u);
 }
 
+TEST(MapRelocalization, ASearchAreaKeepsTheSearchInside) {
+  // The two alike places again, with a prior around the first (as a pose estimate clicked in rviz): the
+  // other is not searched, and the answer is the first's pose.
+  const Fixture& f = fixture();
+  const DescribedMap map = describeMap(*twoPlaceMap(*alternate(*f.target, 0), *alternate(*f.target, 1)),
+                                       f.config.features, f.config.relocalization);
+  const Eigen::Isometry3d truth = placement() * f.reference;
+  SearchArea area{truth.translation().head<2>() + Eigen::Vector2d(20.0, -10.0), 100.0};
+  const RelocalizationResult r =
+      relocalize(map, *f.source, f.config.features, f.config.mac, f.config.relocalization, nullptr, &area);
+  ASSERT_TRUE(r.success) << toString(r.outcome) << ": " << r.message;
+  EXPECT_LT(translationError(r.T_map_query, truth), 0.3);
+  for (const auto& c : r.candidates) EXPECT_LE((c.centre.head<2>() - area.centre).norm(), area.radius);
+  // An area the map does not reach, and one that is no area.
+  area.centre.x() += 5000.0;
+  const RelocalizationResult outside =
+      relocalize(map, *f.source, f.config.features, f.config.mac, f.config.relocalization, nullptr, &area);
+  EXPECT_EQ(outside.outcome, RelocalizationOutcome::kNotLocalized);
+  EXPECT_NE(outside.message.find("search area"), std::string::npos) << outside.message;
+  area.radius = 0.0;
+  EXPECT_EQ(
+      relocalize(map, *f.source, f.config.features, f.config.mac, f.config.relocalization, nullptr, &area)
+          .outcome,
+      RelocalizationOutcome::kInvalidInput);
+}
+
 TEST(MapRelocalization, RefusesWhatItCannotUse) {
   const Fixture& f = fixture();
   RegistrationConfig config = f.config;

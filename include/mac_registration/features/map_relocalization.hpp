@@ -85,10 +85,19 @@ struct RelocalizationResult {
   double describe_ms = 0.0, ranking_ms = 0.0, registration_ms = 0.0, total_ms = 0.0;
 };
 
-// Localizes `query` (its own frame, e.g. the sensor's) in `map`. `features` must describe as the map was
-// described (voxel size, radii); its matching parameters apply to each place. Never throws.
+// Where the query is known to be, like a pose estimate clicked in rviz: only the places whose centre lies
+// within `radius` of `centre` (x-y, the map frame) are ranked and registered.
+struct SearchArea {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // [m]
+  double radius = 0.0;                               // [m]
+};
+
+// Localizes `query` (its own frame, e.g. the sensor's) in `map`, in `area` when given. `features` must
+// describe as the map was described (voxel size, radii); its matching parameters apply to each place.
+// Never throws.
 RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query,
                                 const FeatureParams& features, const MacParams& mac,
-                                const RelocalizationParams& params, const StopFlag* stop = nullptr);
+                                const RelocalizationParams& params, const StopFlag* stop = nullptr,
+                                const SearchArea* area = nullptr);
 
 }  // namespace mac_registration
