@@ -1,13 +1,18 @@
 // The relocalization node as a robot uses it: a map file loaded at start, ~relocalize called with a scan or
 // with nothing (the latest scan on `source`), the verified pose on ~pose and on tf as map -> odom, the map
 // on ~map_cloud; a scan of no mapped place is not localized.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
 #include <mac_registration/Relocalize.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+
+#include <cmath>
+#include <map>
 
 #include <mutex>
 
@@ -51,17 +56,18 @@ class RelocalizationTest : public ::testing::Test {
   }
 
   // Calls until the map is described (the node answers "no map" while it loads).
-  Relocalize::Response call(const sensor_msgs::PointCloud2& cloud) {
+  RelocalizationAnswer call(const sensor_msgs::PointCloud2& cloud, Relocalize::Request request = {}) {
     Relocalize srv;
     const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(60.0);
     do {
+      srv.request = request;
       srv.request.cloud = cloud;
       srv.request.cloud.header.stamp = ros::Time::now();
       EXPECT_TRUE(ros::service::call(kService, srv));
-      if (srv.response.outcome != "no map") break;
+      if (srv.response.result.outcome != "no map") break;
       ros::WallDuration(0.2).sleep();
     } while (ros::WallTime::now() < give_up);
-    return srv.response;
+    return srv.response.result;
   }
 
   ros::NodeHandle nh_;
@@ -99,7 +105,7 @@ class Latest {
 
 TEST_F(RelocalizationTest, LocalizesAScanAndPublishesThePoseAndMapToOdom) {
   Latest<geometry_msgs::PoseWithCovarianceStamped> pose(nh_, "/mac_relocalization/pose");
-  const Relocalize::Response r = call(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"));
+  const RelocalizationAnswer r = call(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"));
   ASSERT_TRUE(r.success) << r.outcome << ": " << r.message;
   EXPECT_EQ(r.outcome, "localized");
   EXPECT_TRUE(r.message.empty()) << r.message;  // map -> odom was published too
@@ -127,13 +133,13 @@ TEST_F(RelocalizationTest, LocalizesAScanAndPublishesThePoseAndMapToOdom) {
 }
 
 TEST_F(RelocalizationTest, AnEmptyRequestLocalizesTheLatestScanOnSource) {
-  const Relocalize::Response before = call(sensor_msgs::PointCloud2());
+  const RelocalizationAnswer before = call(sensor_msgs::PointCloud2());
   if (!before.success) {
     EXPECT_NE(before.message.find("source"), std::string::npos) << before.message;
   }
   ros::Publisher pub = nh_.advertise<sensor_msgs::PointCloud2>("/source", 1, /*latch=*/true);
   pub.publish(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"));
-  Relocalize::Response r;
+  RelocalizationAnswer r;
   const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
   do {
     r = call(sensor_msgs::PointCloud2());
@@ -144,11 +150,130 @@ TEST_F(RelocalizationTest, AnEmptyRequestLocalizesTheLatestScanOnSource) {
   EXPECT_LT(translationError(toEigen(r.pose.pose.pose), reference()), 0.2);
 }
 
+// The source scan split in two halves seen from two odometry poses 3 m apart, as a robot driving by
+// would see them: the window joins them in the newest scan's frame.
+TEST_F(RelocalizationTest, AnEmptyRequestLocalizesTheWindowOfKeyframes) {
+  const PointCloud::Ptr scan = loadCloud(dataPath("lidar/lidar_source_251371071.pcd"));
+  Eigen::Isometry3d odom_lidar = Eigen::Isometry3d::Identity();  // as the launch file's static transform
+  odom_lidar.translation() << 1.0, 2.0, 0.0;
+  odom_lidar.rotate(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()));
+  const Eigen::Isometry3d behind(
+      Eigen::Translation3d(-3.0, 0.0, 0.0));  // the first view, in the last's frame
+  PointCloud back, front;
+  for (const auto& p : *scan) {
+    if (!std::isfinite(p.x)) continue;
+    if (p.x < 0.0f) {
+      back.push_back(p);
+    } else {
+      front.push_back(p);
+    }
+  }
+  tf2_ros::TransformBroadcaster odometry;
+  ros::Publisher pub = nh_.advertise<sensor_msgs::PointCloud2>("/source", 2);
+  ros::WallDuration(0.5).sleep();  // the node connects
+  const std::pair<const PointCloud*, Eigen::Isometry3d> views[] = {{&back, behind},
+                                                                   {&front, Eigen::Isometry3d::Identity()}};
+  for (const auto& [points, view] : views) {
+    std_msgs::Header header;
+    header.frame_id = "lidar_moving";
+    header.stamp = ros::Time::now();
+    geometry_msgs::TransformStamped odom = tf2::eigenToTransform(odom_lidar * view);
+    odom.header.frame_id = "odom";
+    odom.header.stamp = header.stamp;
+    odom.child_frame_id = "lidar_moving";
+    odometry.sendTransform(odom);
+    ros::WallDuration(0.3).sleep();
+    pub.publish(toPointCloud2(*points, view.inverse(), header));
+    ros::WallDuration(0.3).sleep();
+  }
+  const RelocalizationAnswer r = call(sensor_msgs::PointCloud2());
+  ASSERT_TRUE(r.success) << r.outcome << ": " << r.message;
+  EXPECT_NE(r.query.find("window of 2 keyframes"), std::string::npos) << r.query;
+  EXPECT_EQ(r.trigger, "service");
+  EXPECT_LT(rotationErrorDeg(toEigen(r.pose.pose.pose), reference()), 1.0);
+  EXPECT_LT(translationError(toEigen(r.pose.pose.pose), reference()), 0.2);
+}
+
+TEST_F(RelocalizationTest, APriorKeepsTheSearchAroundIt) {
+  Relocalize::Request near;
+  near.use_prior = true;
+  near.prior.x = reference().translation().x() + 5.0;
+  near.prior.y = reference().translation().y() - 5.0;
+  near.prior_radius = 30.0;
+  const RelocalizationAnswer r = call(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"), near);
+  ASSERT_TRUE(r.success) << r.outcome << ": " << r.message;
+  EXPECT_LT(translationError(toEigen(r.pose.pose.pose), reference()), 0.2);
+  Relocalize::Request far = near;
+  far.prior.x += 500.0;
+  const RelocalizationAnswer outside = call(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"), far);
+  EXPECT_FALSE(outside.success);
+  EXPECT_EQ(outside.outcome, "not localized");
+  EXPECT_NE(outside.message.find("search area"), std::string::npos) << outside.message;
+}
+
+TEST_F(RelocalizationTest, TheMapAndTheAnswersAreOnDiagnostics) {
+  call(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"));
+  std::mutex mutex;
+  std::map<std::string, std::string> values;
+  ros::Subscriber sub = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArrayConstPtr& array) {
+        for (const auto& status : array->status) {
+          if (status.name.find("mac_relocalization: relocalization") == std::string::npos) continue;
+          std::lock_guard<std::mutex> lock(mutex);
+          for (const auto& kv : status.values) values[kv.key] = kv.value;
+        }
+      });
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(5.0);
+  while (ros::WallTime::now() < give_up) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!values.empty()) break;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_FALSE(values.empty());
+  EXPECT_EQ(values["map"].rfind("ready", 0), 0u) << values["map"];
+  EXPECT_GT(std::stoi(values["map keypoints"]), 1000);
+  EXPECT_GT(std::stod(values["map description [s]"]), 0.0);
+  EXPECT_GE(std::stoi(values["localized"]), 1);
+}
+
 TEST_F(RelocalizationTest, AScanOfNoMappedPlaceIsNotLocalized) {
-  const Relocalize::Response r = call(cloudMsg("redkitchen_4_0/target_cloud_bin_0.pcd", "lidar"));
+  const RelocalizationAnswer r = call(cloudMsg("redkitchen_4_0/target_cloud_bin_0.pcd", "lidar"));
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.outcome, "not localized");
   EXPECT_FALSE(r.message.empty());
+}
+
+// A second node takes its map from the `map` topic and relocalizes on its own at start-up; its verified
+// pose, sent on initialpose, is the first node's prior.
+TEST_F(RelocalizationTest, AMapTopicAndRelocalizationOnStart) {
+  Latest<RelocalizationAnswer> started(nh_, "/mac_relocalization_start/result");
+  Latest<geometry_msgs::PoseWithCovarianceStamped> initialpose(nh_, "/initialpose");
+  Latest<RelocalizationAnswer> prior(nh_, "/mac_relocalization/result");
+  ros::Publisher map = nh_.advertise<sensor_msgs::PointCloud2>("/map", 1, /*latch=*/true);
+  map.publish(cloudMsg("lidar/lidar_target_251370668.pcd", "map"));
+  ros::Publisher scans = nh_.advertise<sensor_msgs::PointCloud2>("/source_start", 1, /*latch=*/true);
+  scans.publish(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"));
+  const auto answer = started.wait(90.0);
+  ASSERT_TRUE(answer);
+  EXPECT_TRUE(answer->success) << answer->outcome << ": " << answer->message;
+  EXPECT_EQ(answer->trigger, "start");
+  EXPECT_LT(translationError(toEigen(answer->pose.pose.pose), reference()), 0.2);
+  const auto sent = initialpose.wait(10.0);
+  ASSERT_TRUE(sent);
+  EXPECT_TRUE(toEigen(sent->pose.pose).isApprox(toEigen(answer->pose.pose.pose), 1e-9));
+  // The first node relocalizes its own query around that prior.
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(30.0);
+  boost::shared_ptr<const RelocalizationAnswer> around;
+  while (ros::WallTime::now() < give_up) {
+    around = prior.wait(1.0);
+    if (around && around->trigger == "initialpose") break;
+  }
+  ASSERT_TRUE(around);
+  EXPECT_EQ(around->trigger, "initialpose");
+  EXPECT_NE(around->outcome, "no map");
 }
 
 TEST_F(RelocalizationTest, TheMapIsLatchedOnMapCloud) {
