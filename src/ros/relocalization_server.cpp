@@ -145,9 +145,11 @@ RelocalizationServer::RelocalizationServer(ros::NodeHandle nh, ros::NodeHandle p
   prior.callback_queue = &relocalization_queue_;
   initialpose_sub_ = nh_.subscribe(prior);
   if (params_.relocalize_on_start) {
-    ros::TimerOptions start(
-        ros::Duration(1.0), [this](const ros::TimerEvent&) { onStartTimer(); }, &relocalization_queue_);
-    start_timer_ = nh_.createTimer(start);
+    // Wall time: with a replayed bag's clock stopped, the node still tries the query it holds.
+    ros::WallTimerOptions start(
+        ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { onStartTimer(); },
+        &relocalization_queue_);
+    start_timer_ = nh_.createWallTimer(start);
   }
   relocalization_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &relocalization_queue_);
   relocalization_spinner_->start();

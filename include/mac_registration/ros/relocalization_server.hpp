@@ -122,7 +122,7 @@ class RelocalizationServer {
   // Declared last: stopped before anything the relocalizations use goes.
   ros::CallbackQueue relocalization_queue_;
   ros::ServiceServer relocalize_srv_;
-  ros::Timer start_timer_;
+  ros::WallTimer start_timer_;
   std::unique_ptr<ros::AsyncSpinner> relocalization_spinner_;
 };
 
