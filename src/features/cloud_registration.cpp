@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <exception>
 #include <limits>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -366,6 +367,54 @@ CloudRegistrationResult registerDescribedClouds(const DescribedCloud& source, co
   const FeatureParams params = withVoxel(feature_params, target.params.voxel_size);
   return registerWith([&] { return matchDescribedClouds(source, target, params, stop); }, params, mac_params,
                       stop);
+}
+
+std::vector<CloudRegistrationResult> registerCandidates(const PointCloud& source,
+                                                        const std::vector<PointCloud::ConstPtr>& targets,
+                                                        const FeatureParams& feature_params,
+                                                        const MacParams& mac_params, const StopFlag* stop) {
+  FeatureParams params = feature_params;
+  DescribedCloud described;
+  std::exception_ptr source_error;
+  // Invalid parameters are each result's kInvalidParameters (registerWith), not a failed description.
+  if (validateFeatureParams(feature_params).empty()) {
+    try {
+      if (params.voxel_size == 0.0) {
+        double voxel = autoVoxelSize(source, stop);
+        for (const auto& target : targets) {
+          if (target) voxel = std::max(voxel, autoVoxelSize(*target, stop));
+        }
+        params = withVoxel(feature_params, voxel);
+      }
+      described = describeCloud(source, params, "source", stop);
+    } catch (...) {
+      source_error = std::current_exception();
+    }
+  }
+  std::vector<CloudRegistrationResult> results;
+  for (std::size_t k = 0; k < targets.size(); ++k) {
+    results.push_back(registerWith(
+        [&]() -> FeatureCorrespondences {
+          if (source_error) std::rethrow_exception(source_error);
+          if (!targets[k]) throw std::invalid_argument("candidate " + std::to_string(k) + " has no cloud");
+          return matchDescribedClouds(described, describeCloud(*targets[k], params, "target", stop), params,
+                                      stop);
+        },
+        params, mac_params, stop));
+    described.times = StageTimes();  // described once: counted in the first result
+  }
+  return results;
+}
+
+std::vector<std::size_t> bestFirst(const std::vector<const MacResult*>& results) {
+  std::vector<std::size_t> order(results.size());
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    const MacResult &ra = *results[a], &rb = *results[b];
+    if (ra.success != rb.success) return ra.success;
+    return ra.success ? ra.confidence > rb.confidence : ra.counters.inliers > rb.counters.inliers;
+  });
+  return order;
 }
 
 }  // namespace mac_registration

@@ -104,6 +104,30 @@ TEST(RealPair, ADescribedTargetMatchesLikeTheOneCallPath) {
 
 // NaN points and an organized layout (a depth image's invalid pixels) change nothing but the counters:
 // the voxel grid does not depend on where the finite points were stored.
+TEST(RealPair, CandidatesShareOneSourceDescriptionAndTheRightOneComesFirst) {
+  const RealPair& pair = realPair();
+  const FeatureParams features;  // 5 cm voxels: the source is described as the one-call path does
+  const MacParams mac;
+  // Another place: the outdoor scan shrunk to a room's size.
+  auto elsewhere = pcl::make_shared<PointCloud>(*loadCloud(demoDataPath("lidar/lidar_target_251370668.pcd")));
+  for (auto& p : *elsewhere) p.getVector3fMap() *= 0.05f;
+  const std::vector<PointCloud::ConstPtr> targets = {elsewhere, pair.target, nullptr};
+  const std::vector<CloudRegistrationResult> results =
+      registerCandidates(*pair.source, targets, features, mac);
+  ASSERT_EQ(results.size(), 3u);
+  EXPECT_FALSE(results[0].registration.success);
+  ASSERT_TRUE(results[1].registration.success) << results[1].registration.message;
+  const CloudRegistrationResult alone = registerClouds(*pair.source, *pair.target, features, mac);
+  EXPECT_TRUE(results[1].registration.T_target_source.isApprox(alone.registration.T_target_source, 1e-9));
+  EXPECT_LT(rotationErrorDeg(results[1].registration.T_target_source, pair.truth), 5.0);
+  EXPECT_EQ(results[2].registration.status, RegistrationStatus::kInvalidInput);
+  EXPECT_NE(results[2].registration.message.find("candidate 2"), std::string::npos);
+  const auto order =
+      bestFirst({&results[0].registration, &results[1].registration, &results[2].registration});
+  EXPECT_EQ(order.front(), 1u);
+  EXPECT_EQ(order.size(), 3u);
+}
+
 TEST(RealPair, NaNsAndOrganizedCloudsGiveTheSameCorrespondences) {
   const RealPair& pair = realPair();
   PointCloud organized;

@@ -137,4 +137,18 @@ CloudRegistrationResult registerDescribedClouds(const DescribedCloud& source, co
                                                 const FeatureParams& feature_params,
                                                 const MacParams& mac_params, const StopFlag* stop = nullptr);
 
+// One source against several targets (a place recognizer's top-k loop candidates): the source is
+// described once, each target in turn. With voxel_size auto, every cloud is described with the coarsest of
+// their autoVoxelSize. A null target fails alone (kInvalidInput). Results in the targets' order; the
+// source's description time is in the first one's times only. Never throws.
+std::vector<CloudRegistrationResult> registerCandidates(const PointCloud& source,
+                                                        const std::vector<PointCloud::ConstPtr>& targets,
+                                                        const FeatureParams& feature_params,
+                                                        const MacParams& mac_params,
+                                                        const StopFlag* stop = nullptr);
+
+// The order to report candidates in: the successes by confidence, then the others by inliers, each
+// highest first (ties: the given order).
+std::vector<std::size_t> bestFirst(const std::vector<const MacResult*>& results);
+
 }  // namespace mac_registration
