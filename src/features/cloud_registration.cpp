@@ -406,13 +406,17 @@ std::vector<CloudRegistrationResult> registerCandidates(const PointCloud& source
   return results;
 }
 
-std::vector<std::size_t> bestFirst(const std::vector<const MacResult*>& results) {
-  std::vector<std::size_t> order(results.size());
+CandidateRank rankOf(const MacResult& result) {
+  return {result.success, result.confidence, result.counters.inliers};
+}
+
+std::vector<std::size_t> bestFirst(const std::vector<CandidateRank>& ranks) {
+  std::vector<std::size_t> order(ranks.size());
   std::iota(order.begin(), order.end(), std::size_t(0));
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    const MacResult &ra = *results[a], &rb = *results[b];
+    const CandidateRank &ra = ranks[a], &rb = ranks[b];
     if (ra.success != rb.success) return ra.success;
-    return ra.success ? ra.confidence > rb.confidence : ra.counters.inliers > rb.counters.inliers;
+    return ra.success ? ra.confidence > rb.confidence : ra.inliers > rb.inliers;
   });
   return order;
 }

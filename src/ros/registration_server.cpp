@@ -191,6 +191,8 @@ RegistrationServer::RegistrationServer(ros::NodeHandle nh, ros::NodeHandle priva
   register_srv_ = service_nh.advertiseService("register", &RegistrationServer::onRegister, this);
   register_correspondences_srv_ = service_nh.advertiseService(
       "register_correspondences", &RegistrationServer::onRegisterCorrespondences, this);
+  register_candidates_srv_ =
+      service_nh.advertiseService("register_candidates", &RegistrationServer::onRegisterCandidates, this);
 
   worker_ = std::thread([this] { workerLoop(); });
   shutdown_watch_ = std::thread([this] { watchForShutdown(); });
@@ -208,6 +210,7 @@ RegistrationServer::~RegistrationServer() {
   if (service_spinner_) service_spinner_->stop();  // returns once the calls in progress have returned
   register_srv_.shutdown();
   register_correspondences_srv_.shutdown();
+  register_candidates_srv_.shutdown();
   {
     std::lock_guard<std::mutex> lock(shutdown_mutex_);
     destroying_ = true;
@@ -337,6 +340,63 @@ bool RegistrationServer::onRegisterCorrespondences(RegisterCorrespondences::Requ
   publish(outcome);
   response.result = outcome.msg;
   return true;
+}
+
+bool RegistrationServer::onRegisterCandidates(RegisterCandidates::Request& request,
+                                              RegisterCandidates::Response& response) {
+  const ros::Time received = ros::Time::now();
+  if (!request.targets.empty() && !request.correspondences.empty()) {
+    response.message = "give targets or correspondences, not both";
+    return true;
+  }
+  std::vector<Outcome> outcomes;
+  if (!request.targets.empty()) {
+    outcomes = registerCandidateClouds(request.source, request.targets, received);
+  } else {
+    for (const auto& set : request.correspondences)
+      outcomes.push_back(registerCorrespondences(set, received));
+  }
+  if (outcomes.empty()) response.message = "no candidates: targets and correspondences are both empty";
+  std::vector<CandidateRank> ranks;
+  for (const Outcome& o : outcomes) ranks.push_back({bool(o.msg.success), o.msg.confidence, o.msg.inliers});
+  for (const std::size_t k : bestFirst(ranks)) {
+    response.results.push_back(outcomes[k].msg);
+    response.candidates.push_back(static_cast<std::uint32_t>(k));
+  }
+  return true;
+}
+
+std::vector<RegistrationServer::Outcome> RegistrationServer::registerCandidateClouds(
+    const sensor_msgs::PointCloud2& source, const std::vector<sensor_msgs::PointCloud2>& targets,
+    const ros::Time& received) {
+  const ServerConfig cfg = config();
+  std::vector<Outcome> outcomes(targets.size());
+  const CloudConversion source_cloud = toPointCloud(source);
+  std::vector<PointCloud::ConstPtr> clouds(targets.size());
+  std::vector<std::string> problems(targets.size());
+  for (std::size_t k = 0; k < targets.size(); ++k) {
+    const CloudConversion target = toPointCloud(targets[k]);
+    clouds[k] = target.cloud;
+    if (!source_cloud.error.empty()) problems[k] = "source cloud: " + source_cloud.error;
+    if (!target.error.empty()) problems[k] = "target " + std::to_string(k) + ": " + target.error;
+  }
+  std::vector<CloudRegistrationResult> results;
+  if (source_cloud.error.empty())
+    results = registerCandidates(*source_cloud.cloud, clouds, cfg.features, cfg.mac, &stop_);
+  for (std::size_t k = 0; k < targets.size(); ++k) {
+    Outcome& outcome = outcomes[k];
+    if (!problems[k].empty()) {
+      outcome.msg = invalidInput(problems[k]);
+    } else {
+      fillFrontEndStats(results[k].features.stats, outcome.msg);
+      fillResultMsg(results[k].registration, outcome.msg);
+      fillStageTimes(results[k].times(), outcome.msg);
+    }
+    outcome.msg.header.frame_id = targets[k].header.frame_id;
+    outcome.msg.child_frame_id = source.header.frame_id;
+    stampResult(source.header.stamp, received, outcome);
+  }
+  return outcomes;
 }
 
 void RegistrationServer::workerLoop() {

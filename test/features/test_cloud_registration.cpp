@@ -122,8 +122,8 @@ TEST(RealPair, CandidatesShareOneSourceDescriptionAndTheRightOneComesFirst) {
   EXPECT_LT(rotationErrorDeg(results[1].registration.T_target_source, pair.truth), 5.0);
   EXPECT_EQ(results[2].registration.status, RegistrationStatus::kInvalidInput);
   EXPECT_NE(results[2].registration.message.find("candidate 2"), std::string::npos);
-  const auto order =
-      bestFirst({&results[0].registration, &results[1].registration, &results[2].registration});
+  const auto order = bestFirst(
+      {rankOf(results[0].registration), rankOf(results[1].registration), rankOf(results[2].registration)});
   EXPECT_EQ(order.front(), 1u);
   EXPECT_EQ(order.size(), 3u);
 }

@@ -4,6 +4,7 @@
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <gtest/gtest.h>
 #include <mac_registration/Register.h>
+#include <mac_registration/RegisterCandidates.h>
 #include <mac_registration/RegisterCorrespondences.h>
 #include <mac_registration/RegistrationResult.h>
 #include <ros/ros.h>
@@ -168,6 +169,46 @@ TEST_F(RegistrationServerTest, RegisterServiceAlignsARealScanPair) {
   expectWithinBenchmarkCriterion(result);
   EXPECT_GT(result.source_keypoints, 0u);
   EXPECT_GT(result.time_front_end_ms, 0.0);
+}
+
+// A loop check's top-k: the right fragment among other places (an outdoor scan and the Stanford bunny,
+// each scaled to a room's size) and an empty cloud; the source is described once, the right one comes first.
+TEST_F(RegistrationServerTest, RegisterCandidatesPutsTheRightTargetFirst) {
+  const auto scaled = [](const std::string& path, float scale, const std::string& frame) {
+    PointCloud cloud = *loadCloud(kDemoData + "/" + path);
+    for (auto& p : cloud) p.getVector3fMap() *= scale;
+    std_msgs::Header header;
+    header.frame_id = frame;
+    return toPointCloud2(cloud, Eigen::Isometry3d::Identity(), header);
+  };
+  mac_registration::RegisterCandidates srv;
+  srv.request.source = redkitchenCloud("source_cloud_bin_4.pcd", "fragment_4");
+  srv.request.targets = {scaled("lidar/lidar_target_251370668.pcd", 0.05f, "street"),
+                         scaled("bunny/stanford_bun000.ply", 20.0f, "bunny"),
+                         redkitchenCloud("target_cloud_bin_0.pcd", "fragment_0"), sensor_msgs::PointCloud2()};
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_candidates", srv));
+  const auto& r = srv.response;
+  ASSERT_EQ(r.results.size(), 4u) << r.message;
+  ASSERT_EQ(r.candidates.size(), 4u);
+  EXPECT_EQ(r.candidates[0], 2u);
+  expectWithinBenchmarkCriterion(r.results[0]);
+  EXPECT_EQ(r.results[0].header.frame_id, "fragment_0");
+  EXPECT_EQ(r.results[0].child_frame_id, "fragment_4");
+  for (std::size_t k = 1; k < r.results.size(); ++k) EXPECT_FALSE(r.results[k].success) << r.candidates[k];
+  for (std::size_t k = 0; k < r.results.size(); ++k) {
+    if (r.candidates[k] == 3) {
+      EXPECT_EQ(r.results[k].status, mac_registration::RegistrationResult::INVALID_INPUT);
+    }
+  }
+  // Clouds and correspondences at once are refused with a reason, as is nothing at all.
+  srv.request.correspondences.resize(1);
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_candidates", srv));
+  EXPECT_TRUE(srv.response.results.empty());
+  EXPECT_NE(srv.response.message.find("not both"), std::string::npos);
+  mac_registration::RegisterCandidates nothing;
+  ASSERT_TRUE(ros::service::call("/mac_registration/register_candidates", nothing));
+  EXPECT_TRUE(nothing.response.results.empty());
+  EXPECT_FALSE(nothing.response.message.empty());
 }
 
 // The topic path with clouds: a latched target, then a source; ~result, ~aligned and tf must follow.

@@ -147,8 +147,14 @@ std::vector<CloudRegistrationResult> registerCandidates(const PointCloud& source
                                                         const MacParams& mac_params,
                                                         const StopFlag* stop = nullptr);
 
-// The order to report candidates in: the successes by confidence, then the others by inliers, each
-// highest first (ties: the given order).
-std::vector<std::size_t> bestFirst(const std::vector<const MacResult*>& results);
+// What orders candidates: the successes by confidence, then the others by inliers, each highest first
+// (ties: the given order).
+struct CandidateRank {
+  bool success = false;
+  double confidence = 0.0;
+  std::size_t inliers = 0;
+};
+CandidateRank rankOf(const MacResult& result);
+std::vector<std::size_t> bestFirst(const std::vector<CandidateRank>& ranks);
 
 }  // namespace mac_registration

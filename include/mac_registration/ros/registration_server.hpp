@@ -5,6 +5,7 @@
 #include <mac_registration/Correspondences.h>
 #include <mac_registration/MacRegistrationConfig.h>
 #include <mac_registration/Register.h>
+#include <mac_registration/RegisterCandidates.h>
 #include <mac_registration/RegisterCorrespondences.h>
 #include <mac_registration/RegistrationResult.h>
 #include <message_filters/subscriber.h>
@@ -87,6 +88,7 @@ class RegistrationServer {
   bool onRegister(Register::Request& request, Register::Response& response);
   bool onRegisterCorrespondences(RegisterCorrespondences::Request& request,
                                  RegisterCorrespondences::Response& response);
+  bool onRegisterCandidates(RegisterCandidates::Request& request, RegisterCandidates::Response& response);
   void onReconfigure(MacRegistrationConfig& config, std::uint32_t level);
 
   void workerLoop();
@@ -105,6 +107,10 @@ class RegistrationServer {
                                                        const FeatureParams& params, std::size_t& dropped);
   Outcome registerCorrespondences(const mac_registration::Correspondences& correspondences,
                                   const ros::Time& received);
+  // One source against each target, described once (~register_candidates); in the targets' order.
+  std::vector<Outcome> registerCandidateClouds(const sensor_msgs::PointCloud2& source,
+                                               const std::vector<sensor_msgs::PointCloud2>& targets,
+                                               const ros::Time& received);
   Outcome missingTarget(const sensor_msgs::PointCloud2& source, const std::string& why,
                         const ros::Time& received);
   // The result's stamp is the input's, or `received` when the input's is zero (said in a warning).
@@ -164,7 +170,7 @@ class RegistrationServer {
 
   // Declared after everything the calls use, so that they are stopped before any of it goes.
   ros::CallbackQueue service_queue_;
-  ros::ServiceServer register_srv_, register_correspondences_srv_;
+  ros::ServiceServer register_srv_, register_correspondences_srv_, register_candidates_srv_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
 
   std::mutex shutdown_mutex_;
