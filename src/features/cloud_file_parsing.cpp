@@ -132,10 +132,29 @@ float toCoordinate(double value) {
   return static_cast<float>(std::clamp(value, double(-kLargest), double(kLargest)));
 }
 
-bool allFinite(const PointCloud& cloud) {
-  return std::all_of(cloud.begin(), cloud.end(), [](const pcl::PointXYZ& p) {
-    return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-  });
+PointCloud::Ptr toPointCloud(const FileCloud& file, const Eigen::Vector3d& origin) {
+  // A finite coordinate stays finite even if the subtraction overflows (an origin taken from garbage).
+  const auto local = [](double value, double origin) {
+    constexpr double kLargest = std::numeric_limits<double>::max();
+    return toCoordinate(std::isfinite(value) ? std::clamp(value - origin, -kLargest, kLargest) : value);
+  };
+  auto cloud = pcl::make_shared<PointCloud>();
+  cloud->resize(file.points.size());
+  bool all_finite = true;  // is_dense as PCL means it
+  for (std::size_t i = 0; i < file.points.size(); ++i) {
+    const Eigen::Vector3d& p = file.points[i];
+    pcl::PointXYZ& q = (*cloud)[i];
+    q = pcl::PointXYZ(local(p.x(), origin.x()), local(p.y(), origin.y()), local(p.z(), origin.z()));
+    all_finite = all_finite && std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
+  }
+  cloud->width = file.width;
+  cloud->height = file.height;
+  cloud->is_dense = all_finite;
+  const Eigen::Vector3d viewpoint = file.viewpoint - origin;
+  cloud->sensor_origin_ =
+      Eigen::Vector4f(float(viewpoint.x()), float(viewpoint.y()), float(viewpoint.z()), 0.0f);
+  cloud->sensor_orientation_ = file.orientation;
+  return cloud;
 }
 
 }  // namespace cloud_file

@@ -1,8 +1,10 @@
-// What the PCD and PLY readers behind loadCloud share: the error they throw, the reading of a header line
-// by line, the checked counts, and the decoding of the numbers both formats store. Internal to the
-// features library.
+// What the PCD and PLY readers behind loadCloud and loadLocalCloud share: the error they throw, the reading
+// of a header line by line, the checked counts, the decoding of the numbers both formats store, and the
+// cloud they read. Internal to the features library.
 #pragma once
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <fstream>
 #include <limits>
@@ -70,18 +72,30 @@ struct ScalarType {
 // The value stored at `bytes`, whatever the byte order of this machine.
 double decodeScalar(const char* bytes, ScalarType type, bool little_endian);
 
+// A cloud as its file stores it: the coordinates in double, so that a map in global coordinates keeps its
+// millimetres until a local origin is taken off (loadLocalCloud); 24 bytes a point, freed once the front
+// end's float cloud is made.
+struct FileCloud {
+  std::vector<Eigen::Vector3d> points;  // every point the file declares, in its order, NaNs included
+  std::uint32_t width = 0, height = 1;  // an organised cloud's grid; unorganised: size() x 1
+  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();  // PCD's VIEWPOINT: where the sensor was
+  Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
+};
+
 // A coordinate in the front end's float. Non-finite values stay what they are (the front end drops them);
 // finite values beyond float's range become its largest, so that the coordinate bound refuses the file
 // instead of the point turning into an infinity and being dropped in silence.
 float toCoordinate(double value);
 
-// is_dense as PCL means it: every point finite.
-bool allFinite(const PointCloud& cloud);
+// The front end's cloud of `file`: each point less `origin`, subtracted in double, then in float; the grid
+// and the viewpoint (less `origin` too) kept.
+PointCloud::Ptr toPointCloud(const FileCloud& file, const Eigen::Vector3d& origin);
 
-// The readers loadCloud calls once it has checked the path: a cloud of every point the file declares, in
-// its order, or a Malformed error. `warnings` receives what was read despite a fault of the file.
-PointCloud::Ptr readPcdFile(const std::string& path, std::vector<std::string>& warnings);
-PointCloud::Ptr readPlyFile(const std::string& path);
+// The readers loadCloud and loadLocalCloud call once they have checked the path: every point the file
+// declares, in its order, or a Malformed error. `warnings` receives what was read despite a fault of the
+// file.
+FileCloud readPcdFile(const std::string& path, std::vector<std::string>& warnings);
+FileCloud readPlyFile(const std::string& path);
 
 }  // namespace cloud_file
 }  // namespace mac_registration

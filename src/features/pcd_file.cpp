@@ -21,7 +21,7 @@ struct PcdHeader {
   std::uint64_t width = 0, height = 1, points = 0;
   std::string data;
   std::uint64_t body_offset = 0;
-  Eigen::Vector4f origin = Eigen::Vector4f::Zero();  // PCL's: w = 0
+  Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
   Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
 
   std::uint64_t fieldBytes(std::size_t i) const { return sizes[i] * counts[i]; }
@@ -102,7 +102,7 @@ void parsePcdLine(const std::vector<std::string>& words, PcdHeader& h) {
     bool numbers = values.size() == 7;
     for (std::size_t i = 0; numbers && i < 7; ++i) numbers = parseNumber(values[i], v[i]);
     if (!numbers) throw Malformed("VIEWPOINT needs 7 numbers (tx ty tz qw qx qy qz)");
-    h.origin = Eigen::Vector4f(float(v[0]), float(v[1]), float(v[2]), 0.0f);
+    h.viewpoint = Eigen::Vector3d(v[0], v[1], v[2]);
     h.orientation = Eigen::Quaternionf(float(v[3]), float(v[4]), float(v[5]), float(v[6]));
   } else if (key == "POINTS") {
     expectOne();
@@ -207,13 +207,13 @@ CoordinateLayout coordinateLayout(PcdHeader& h) {
 // One value a line and one line a point, each a number: PCL's reader fills what a short line lacks and
 // only warns "possibly malformed", which would read a damaged file as a different cloud.
 void readAsciiBody(LineReader& reader, const PcdHeader& h, const CoordinateLayout& layout,
-                   std::uint64_t available, PointCloud& cloud) {
+                   std::uint64_t available, std::vector<Eigen::Vector3d>& points) {
   const std::uint64_t values = h.valuesPerPoint();
-  cloud.reserve(std::min(h.points, available / (2 * values)));  // a garbage POINTS must not allocate
+  points.reserve(std::min(h.points, available / (2 * values)));  // a garbage POINTS must not allocate
   double point[3] = {};
   for (std::vector<std::string> words; reader.next(words);) {
     if (words.empty()) continue;
-    if (cloud.size() == h.points)
+    if (points.size() == h.points)
       throw Malformed("more data lines than its " + std::to_string(h.points) + " POINTS (line " +
                       std::to_string(reader.line()) + ")");
     if (words.size() != values) {
@@ -229,10 +229,10 @@ void readAsciiBody(LineReader& reader, const PcdHeader& h, const CoordinateLayou
         if (k == layout.value_index[axis]) point[axis] = value;
       }
     }
-    cloud.push_back(pcl::PointXYZ(toCoordinate(point[0]), toCoordinate(point[1]), toCoordinate(point[2])));
+    points.emplace_back(point[0], point[1], point[2]);
   }
-  if (cloud.size() < h.points) {
-    throw Malformed("POINTS " + std::to_string(h.points) + " but " + std::to_string(cloud.size()) +
+  if (points.size() < h.points) {
+    throw Malformed("POINTS " + std::to_string(h.points) + " but " + std::to_string(points.size()) +
                     " data lines (truncated?)");
   }
 }
@@ -240,21 +240,19 @@ void readAsciiBody(LineReader& reader, const PcdHeader& h, const CoordinateLayou
 // The points of a decoded body in which the value of `axis` for point k lies at
 // first[axis] + k * stride[axis]. PCL writes the bytes of this machine: little-endian.
 void decodePoints(const std::vector<char>& body, const std::uint64_t first[3], const std::uint64_t stride[3],
-                  const CoordinateLayout& layout, std::uint64_t points, PointCloud& cloud) {
-  cloud.resize(points);
-  for (std::uint64_t k = 0; k < points; ++k) {
-    float xyz[3];
+                  const CoordinateLayout& layout, std::uint64_t count, std::vector<Eigen::Vector3d>& points) {
+  points.resize(count);
+  for (std::uint64_t k = 0; k < count; ++k) {
     for (int axis = 0; axis < 3; ++axis) {
       const char* at = body.data() + first[axis] + k * stride[axis];
-      xyz[axis] = toCoordinate(decodeScalar(at, layout.type[axis], true));
+      points[k][axis] = decodeScalar(at, layout.type[axis], true);
     }
-    cloud[k] = pcl::PointXYZ(xyz[0], xyz[1], xyz[2]);
   }
 }
 
 // POINTS records of the fields in their order.
 void readBinaryBody(std::istream& in, const PcdHeader& h, const CoordinateLayout& layout,
-                    std::uint64_t available, PointCloud& cloud) {
+                    std::uint64_t available, std::vector<Eigen::Vector3d>& points) {
   const std::uint64_t needed = checkedProduct(h.points, h.pointBytes(), "POINTS x point size");
   if (available < needed) {
     throw Malformed(std::to_string(h.points) + " points of " + std::to_string(h.pointBytes()) +
@@ -264,13 +262,13 @@ void readBinaryBody(std::istream& in, const PcdHeader& h, const CoordinateLayout
   std::vector<char> body(needed);
   if (!in.read(body.data(), std::streamsize(needed))) throw Malformed("its binary data cannot be read");
   const std::uint64_t stride[3] = {h.pointBytes(), h.pointBytes(), h.pointBytes()};
-  decodePoints(body, layout.byte_offset, stride, layout, h.points, cloud);
+  decodePoints(body, layout.byte_offset, stride, layout, h.points, points);
 }
 
 // Two uint32 (the compressed and the unpacked size), then an LZF stream that unpacks to the fields one
 // after the other, each field's values for every point together.
 void readCompressedBody(std::istream& in, const PcdHeader& h, const CoordinateLayout& layout,
-                        std::uint64_t available, PointCloud& cloud) {
+                        std::uint64_t available, std::vector<Eigen::Vector3d>& points) {
   const std::uint64_t needed = checkedProduct(h.points, h.pointBytes(), "POINTS x point size");
   char size_words[8];
   if (available < sizeof size_words || !in.read(size_words, sizeof size_words))
@@ -307,29 +305,28 @@ void readCompressedBody(std::istream& in, const PcdHeader& h, const CoordinateLa
     first[axis] = h.points * layout.byte_offset[axis];
     stride[axis] = layout.type[axis].bytes;
   }
-  decodePoints(body, first, stride, layout, h.points, cloud);
+  decodePoints(body, first, stride, layout, h.points, points);
 }
 
 }  // namespace
 
-PointCloud::Ptr readPcdFile(const std::string& path, std::vector<std::string>& warnings) {
+FileCloud readPcdFile(const std::string& path, std::vector<std::string>& warnings) {
   LineReader reader(path);
   PcdHeader h = readPcdHeader(reader, warnings);
   const CoordinateLayout layout = coordinateLayout(h);
   const std::uint64_t size = fileSize(path);
   const std::uint64_t available = size > h.body_offset ? size - h.body_offset : 0;
-  auto cloud = pcl::make_shared<PointCloud>();
+  FileCloud cloud;
   if (h.data == "ascii")
-    readAsciiBody(reader, h, layout, available, *cloud);
+    readAsciiBody(reader, h, layout, available, cloud.points);
   else if (h.data == "binary")
-    readBinaryBody(reader.stream(), h, layout, available, *cloud);
+    readBinaryBody(reader.stream(), h, layout, available, cloud.points);
   else
-    readCompressedBody(reader.stream(), h, layout, available, *cloud);
-  cloud->width = std::uint32_t(h.width);
-  cloud->height = std::uint32_t(h.height);
-  cloud->is_dense = allFinite(*cloud);
-  cloud->sensor_origin_ = h.origin;
-  cloud->sensor_orientation_ = h.orientation;
+    readCompressedBody(reader.stream(), h, layout, available, cloud.points);
+  cloud.width = std::uint32_t(h.width);
+  cloud.height = std::uint32_t(h.height);
+  cloud.viewpoint = h.viewpoint;
+  cloud.orientation = h.orientation;
   return cloud;
 }
 

@@ -172,13 +172,14 @@ class WordReader {
 
 // Every element walked (lists parsed by their lengths, every value a number), the vertices' coordinates
 // kept: a file that disagrees with its header anywhere is refused.
-void readAsciiBody(LineReader& reader, const PlyHeader& h, std::uint64_t available, PointCloud& cloud) {
+void readAsciiBody(LineReader& reader, const PlyHeader& h, std::uint64_t available,
+                   std::vector<Eigen::Vector3d>& points) {
   std::uint64_t needed = 0;
   for (const auto& e : h.elements)
     needed = checkedSum(needed, checkedProduct(e.count, e.min_values, "element count x values"),
                         "the elements' values");
   const PlyElement& vertex = h.elements[h.vertex];
-  cloud.reserve(std::min(vertex.count, available / (2 * vertex.min_values)));  // garbage counts
+  points.reserve(std::min(vertex.count, available / (2 * vertex.min_values)));  // garbage counts
   WordReader words(reader.stream(), reader.line());
   std::string word;
   const auto nextNumber = [&](const PlyElement& e, std::uint64_t instance) {
@@ -211,8 +212,7 @@ void readAsciiBody(LineReader& reader, const PlyHeader& h, std::uint64_t availab
                           " is not a whole number");
         for (std::uint64_t k = 0; k < length; ++k) nextNumber(e, instance);
       }
-      if (is_vertex)
-        cloud.push_back(pcl::PointXYZ(toCoordinate(xyz[0]), toCoordinate(xyz[1]), toCoordinate(xyz[2])));
+      if (is_vertex) points.emplace_back(xyz[0], xyz[1], xyz[2]);
     }
   }
 }
@@ -242,13 +242,14 @@ class BinaryBody {
 };
 
 // Vertices without lists: records of one size, read many at a time.
-void readVertexRecords(BinaryBody& body, const PlyHeader& h, bool little_endian, PointCloud& cloud) {
+void readVertexRecords(BinaryBody& body, const PlyHeader& h, bool little_endian,
+                       std::vector<Eigen::Vector3d>& points) {
   const PlyElement& e = h.elements[h.vertex];
   std::uint64_t offset[3] = {};
   for (int axis = 0; axis < 3; ++axis) {
     for (std::size_t p = 0; p < h.xyz[axis]; ++p) offset[axis] += e.properties[p].type.bytes;
   }
-  cloud.resize(e.count);
+  points.resize(e.count);
   constexpr std::uint64_t kBatch = 1 << 16;
   std::vector<char> records;
   for (std::uint64_t first = 0; first < e.count; first += kBatch) {
@@ -256,20 +257,18 @@ void readVertexRecords(BinaryBody& body, const PlyHeader& h, bool little_endian,
     records.resize(n * e.min_bytes);
     body.read(records.data(), records.size(), e, first);
     for (std::uint64_t k = 0; k < n; ++k) {
-      float xyz[3];
       for (int axis = 0; axis < 3; ++axis) {
         const PlyProperty& p = e.properties[h.xyz[axis]];
-        xyz[axis] = toCoordinate(
-            decodeScalar(records.data() + k * e.min_bytes + offset[axis], p.type, little_endian));
+        points[first + k][axis] =
+            decodeScalar(records.data() + k * e.min_bytes + offset[axis], p.type, little_endian);
       }
-      cloud[first + k] = pcl::PointXYZ(xyz[0], xyz[1], xyz[2]);
     }
   }
 }
 
 // An element with lists, instance by instance; the vertices' coordinates kept.
 void walkInstances(BinaryBody& body, const PlyHeader& h, std::size_t element, bool little_endian,
-                   PointCloud& cloud) {
+                   std::vector<Eigen::Vector3d>& points) {
   const PlyElement& e = h.elements[element];
   const bool is_vertex = element == h.vertex;
   char scalar[8];
@@ -291,14 +290,14 @@ void walkInstances(BinaryBody& body, const PlyHeader& h, std::size_t element, bo
                         instanceOf(e, instance));
       body.skip(std::uint64_t(length) * property.type.bytes, e, instance);  // length < 2^32: no overflow
     }
-    if (is_vertex)
-      cloud.push_back(pcl::PointXYZ(toCoordinate(xyz[0]), toCoordinate(xyz[1]), toCoordinate(xyz[2])));
+    if (is_vertex) points.emplace_back(xyz[0], xyz[1], xyz[2]);
   }
 }
 
 // The elements up to the vertices (what follows them is not needed; the file's size covers their least
 // size), every element without lists skipped whole.
-void readBinaryBody(std::istream& in, const PlyHeader& h, std::uint64_t available, PointCloud& cloud) {
+void readBinaryBody(std::istream& in, const PlyHeader& h, std::uint64_t available,
+                    std::vector<Eigen::Vector3d>& points) {
   std::uint64_t needed = 0;
   for (const auto& e : h.elements)
     needed = checkedSum(needed, checkedProduct(e.count, e.min_bytes, "element count x size"),
@@ -315,33 +314,32 @@ void readBinaryBody(std::istream& in, const PlyHeader& h, std::uint64_t availabl
   for (std::size_t i = 0; i < h.vertex; ++i) {
     const PlyElement& e = h.elements[i];
     if (e.has_lists)
-      walkInstances(body, h, i, little_endian, cloud);
+      walkInstances(body, h, i, little_endian, points);
     else
       body.skip(e.count * e.min_bytes, e, 0);  // checked above: no overflow
   }
   if (vertex.has_lists) {
-    cloud.reserve(vertex.count);  // the file holds at least the count's minimum size: bounded
-    walkInstances(body, h, h.vertex, little_endian, cloud);
+    points.reserve(vertex.count);  // the file holds at least the count's minimum size: bounded
+    walkInstances(body, h, h.vertex, little_endian, points);
   } else {
-    readVertexRecords(body, h, little_endian, cloud);
+    readVertexRecords(body, h, little_endian, points);
   }
 }
 
 }  // namespace
 
-PointCloud::Ptr readPlyFile(const std::string& path) {
+FileCloud readPlyFile(const std::string& path) {
   LineReader reader(path);
   const PlyHeader h = readPlyHeader(reader);
   const std::uint64_t size = fileSize(path);
   const std::uint64_t available = size > reader.offset() ? size - reader.offset() : 0;
-  auto cloud = pcl::make_shared<PointCloud>();
+  FileCloud cloud;
   if (h.format == "ascii")
-    readAsciiBody(reader, h, available, *cloud);
+    readAsciiBody(reader, h, available, cloud.points);
   else
-    readBinaryBody(reader.stream(), h, available, *cloud);
-  cloud->width = std::uint32_t(cloud->size());
-  cloud->height = 1;
-  cloud->is_dense = allFinite(*cloud);
+    readBinaryBody(reader.stream(), h, available, cloud.points);
+  cloud.width = std::uint32_t(cloud.points.size());
+  cloud.height = 1;
   return cloud;
 }
 

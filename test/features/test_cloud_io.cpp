@@ -1,4 +1,5 @@
-// loadCloud on the three formats, and its errors: each names the file and what is wrong with it.
+// loadCloud on the three formats, and its errors: each names the file and what is wrong with it; and
+// loadLocalCloud on maps in global coordinates.
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
@@ -349,8 +350,8 @@ TEST(LoadCloud, ReadsBinaryPlyOfAnyNumericTypeAndListsBeforeTheVertices) {
                   "its data ends inside element 'vertex' (2 of 2)");
 }
 
-// A cloud with double x y z and a float intensity, as PCL's writers store it from PCLPointCloud2.
-pcl::PCLPointCloud2 doubleCloud() {
+// A cloud of `points` with double x y z and a float intensity, as PCL's writers store it from PCLPointCloud2.
+pcl::PCLPointCloud2 doubleCloud(const std::vector<Eigen::Vector3d>& points) {
   pcl::PCLPointCloud2 cloud;
   for (const char* name : {"x", "y", "z"}) {
     pcl::PCLPointField field;
@@ -367,14 +368,20 @@ pcl::PCLPointCloud2 doubleCloud() {
   intensity.count = 1;
   cloud.fields.push_back(intensity);
   cloud.point_step = 28;
-  cloud.width = 3;
+  cloud.width = std::uint32_t(points.size());
   cloud.height = 1;
   cloud.row_step = cloud.point_step * cloud.width;
-  for (const auto& p : kDoubles) {
-    const std::string point = bytesOf(p[0]) + bytesOf(p[1]) + bytesOf(p[2]) + bytesOf(0.5f);
+  for (const auto& p : points) {
+    const std::string point = bytesOf(p.x()) + bytesOf(p.y()) + bytesOf(p.z()) + bytesOf(0.5f);
     cloud.data.insert(cloud.data.end(), point.begin(), point.end());
   }
   return cloud;
+}
+
+pcl::PCLPointCloud2 doubleCloud() {
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& p : kDoubles) points.emplace_back(p[0], p[1], p[2]);
+  return doubleCloud(points);
 }
 
 TEST(LoadCloud, ReadsDoublePrecisionPcdInEveryEncoding) {
@@ -539,6 +546,139 @@ TEST(LoadCloud, ShowsBinaryBytesInItsMessagesEscapedOrSummarised) {
   expectPrintableLoadError(
       dir.write("binary_word.ply", plyHeader("ascii", "3") + "1 2 3\n-4 5.25\xff 6\n7 -8 9.25\n"),
       "'5.25\\xFF' is not a number");
+}
+
+// A map in UTM coordinates (zone 32T), about 10 km across, of five points whose medians are those of the
+// first: eastings and northings float32 would round to 6.25 cm and 0.5 m, heights float32 holds.
+const std::vector<Eigen::Vector3d> kUtmMap = {{512345.678, 4712345.678, 250.1},
+                                              {517345.123, 4707345.987, 180.456},
+                                              {508345.001, 4716345.999, 320.789},
+                                              {512000.5, 4712400.25, 251.0},
+                                              {513000.25, 4711000.125, 249.875}};
+// The medians rounded to whole metres; the heights all lie within kLocalFrameBound and keep theirs.
+const Eigen::Vector3d kUtmOrigin(512346.0, 4712346.0, 0.0);
+
+// Expects the local cloud to be `points` in the frame of `origin`, to a millimetre.
+void expectLocalPoints(const LocalCloud& local, const std::vector<Eigen::Vector3d>& points,
+                       const Eigen::Vector3d& origin) {
+  EXPECT_EQ(local.origin, origin);
+  ASSERT_EQ(local.cloud->size(), points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d restored = (*local.cloud)[i].getVector3fMap().cast<double>() + local.origin;
+    EXPECT_LT((restored - points[i]).cwiseAbs().maxCoeff(), 1e-3)
+        << i << ": " << restored.transpose() << " read, " << points[i].transpose() << " written";
+  }
+}
+
+// The PLY of `points` with double x y z, in `format`.
+std::string doublePly(const std::vector<Eigen::Vector3d>& points, const std::string& format) {
+  std::string ply = "ply\nformat " + format + " 1.0\nelement vertex " + std::to_string(points.size()) +
+                    "\nproperty double x\nproperty double y\nproperty double z\nend_header\n";
+  std::ostringstream ascii;
+  ascii.precision(17);
+  for (const auto& p : points) {
+    if (format == "ascii")
+      ascii << p.x() << " " << p.y() << " " << p.z() << "\n";
+    else
+      ply += bytesOf(p.x()) + bytesOf(p.y()) + bytesOf(p.z());
+  }
+  return ply + ascii.str();
+}
+
+TEST(LoadLocalCloud, ReadsAUtmMapInEveryDoubleEncodingToTheMillimetre) {
+  TempDir dir;
+  pcl::PCDWriter writer;
+  writer.writeASCII(dir.file("a.pcd"), doubleCloud(kUtmMap), Eigen::Vector4f::Zero(),
+                    Eigen::Quaternionf::Identity(), 17);
+  writer.writeBinary(dir.file("b.pcd"), doubleCloud(kUtmMap));
+  writer.writeBinaryCompressed(dir.file("c.pcd"), doubleCloud(kUtmMap));
+  dir.write("a.ply", doublePly(kUtmMap, "ascii"));
+  dir.write("b.ply", doublePly(kUtmMap, "binary_little_endian"));
+  for (const char* name : {"a.pcd", "b.pcd", "c.pcd", "a.ply", "b.ply"}) {
+    SCOPED_TRACE(name);
+    std::vector<std::string> warnings;
+    const LocalCloud local = loadLocalCloud(dir.file(name), &warnings);
+    expectLocalPoints(local, kUtmMap, kUtmOrigin);
+    EXPECT_TRUE(warnings.empty());
+    EXPECT_TRUE(local.cloud->is_dense);
+    // loadCloud keeps the file's frame, where the northings are beyond the coordinate bound.
+    expectLoadError(dir.file(name),
+                    "point 0 has y = 4.71235e+06 m, beyond the front end's bound of +-1e+06 m");
+  }
+}
+
+// The sensor's position is a point of the map like the others: it moves into the local frame with them.
+TEST(LoadLocalCloud, MovesTheViewpointIntoTheLocalFrame) {
+  TempDir dir;
+  pcl::PCDWriter().writeBinary(dir.file("b.pcd"), doubleCloud(kUtmMap));
+  std::ifstream in(dir.file("b.pcd"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string path = dir.write("viewpoint.pcd", replaced(bytes, "VIEWPOINT 0 0 0 1 0 0 0",
+                                                               "VIEWPOINT 512340.5 4712350.25 260 0 1 0 0"));
+  const LocalCloud local = loadLocalCloud(path);
+  expectLocalPoints(local, kUtmMap, kUtmOrigin);
+  EXPECT_EQ(local.cloud->sensor_origin_, Eigen::Vector4f(-5.5f, 4.25f, 260.0f, 0.0f));
+  EXPECT_EQ(local.cloud->sensor_orientation_.coeffs(), Eigen::Quaternionf(0.0f, 1.0f, 0.0f, 0.0f).coeffs());
+}
+
+// Below the bound float32 still spaces eastings 6.25 cm apart; the local frame keeps the millimetres.
+TEST(LoadLocalCloud, KeepsTheMillimetresLoadCloudRoundsAway) {
+  TempDir dir;
+  const std::vector<Eigen::Vector3d> points = {{912345.03, 12.5, 3.0}, {912350.97, -20.25, 4.5}};
+  const std::string path = dir.write("east.ply", doublePly(points, "binary_little_endian"));
+  const PointCloud::Ptr global = loadCloud(path);
+  EXPECT_GT(std::abs(double((*global)[0].x) - points[0].x()), 0.01);
+  expectLocalPoints(loadLocalCloud(path), points, Eigen::Vector3d(912351.0, 0.0, 0.0));
+}
+
+// A cloud within kLocalFrameBound of its frame's origin keeps that frame: it reads as loadCloud reads it.
+TEST(LoadLocalCloud, LeavesASmallCloudInItsFrame) {
+  TempDir dir;
+  PointCloud grid(2, 3, pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+  grid(1, 0) = pcl::PointXYZ(-9999.5f, 9999.75f, std::numeric_limits<float>::quiet_NaN());
+  grid(0, 2) = pcl::PointXYZ(0.1f, -0.2f, 0.3f);
+  grid.is_dense = false;
+  pcl::io::savePCDFileBinary(dir.file("grid.pcd"), grid);
+  std::string bin;
+  for (const auto& p : threePoints()) {
+    const float record[4] = {p.x, p.y, p.z, 0.5f};
+    bin.append(reinterpret_cast<const char*>(record), sizeof record);
+  }
+  dir.write("scan.bin", bin);
+  pcl::io::savePLYFileBinary(dir.file("c.ply"), threePoints());
+  for (const char* name : {"grid.pcd", "scan.bin", "c.ply"}) {
+    SCOPED_TRACE(name);
+    const PointCloud::Ptr global = loadCloud(dir.file(name));
+    const LocalCloud local = loadLocalCloud(dir.file(name));
+    EXPECT_EQ(local.origin, Eigen::Vector3d::Zero());
+    ASSERT_EQ(local.cloud->size(), global->size());
+    for (std::size_t i = 0; i < global->size(); ++i) {
+      const Eigen::Vector3f a = (*local.cloud)[i].getVector3fMap(), b = (*global)[i].getVector3fMap();
+      EXPECT_TRUE(((a.array() == b.array()) || (a.array().isNaN() && b.array().isNaN())).all()) << i;
+    }
+    EXPECT_EQ(local.cloud->width, global->width);
+    EXPECT_EQ(local.cloud->height, global->height);
+    EXPECT_EQ(local.cloud->is_dense, global->is_dense);
+    EXPECT_EQ(local.cloud->sensor_origin_, global->sensor_origin_);
+  }
+}
+
+// A misdecoded value does not move the median: the bound names it, not the map's good points.
+TEST(LoadLocalCloud, RefusesAMisdecodedCoordinateByName) {
+  TempDir dir;
+  std::vector<Eigen::Vector3d> points = kUtmMap;
+  points[3].x() = 1e30;
+  const std::string path = dir.write("garbage.ply", doublePly(points, "binary_little_endian"));
+  try {
+    loadLocalCloud(path);
+    ADD_FAILURE() << "no error for " << path;
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("cannot use cloud '" + path +
+                                   "': point 3 has x = 1e+30 m, beyond the front end's bound of +-1e+06 m"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(LoadCloud, ReadsTheShippedRealPair) {

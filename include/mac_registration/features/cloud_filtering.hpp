@@ -18,8 +18,9 @@ double finiteDiagonal(const PointCloud& cloud, std::size_t& finite);
 // [m] The largest |coordinate| a cloud may have where it enters the front end (loadCloud, describeCloud and
 // the ROS reader). 10^6 m holds any UTM easting and any map in a local frame up to a UTM zone's width, and
 // float32 still spaces coordinates 6.25 cm apart there, finer than an outdoor voxel; beyond it a cloud is
-// misdecoded or in global coordinates (UTM northings: 1 m steps), and its squared distances would overflow
-// the kd-trees' float arithmetic at ~10^19 m. Finer voxels need a tighter bound: see describeCloud.
+// misdecoded or in global coordinates (UTM northings: 1 m steps; loadLocalCloud reads those in a local
+// frame), and its squared distances would overflow the kd-trees' float arithmetic at ~10^19 m. Finer voxels
+// need a tighter bound: see describeCloud.
 constexpr double kMaxAbsCoordinate = 1.0e6;
 
 // Why `point` (number `index` of its cloud) is refused: a finite coordinate beyond +-kMaxAbsCoordinate
