@@ -60,21 +60,18 @@ int main(int argc, char** argv) {
   using namespace mac_registration;
   ToolArguments options;
   RegistrationConfig config;
-  PointCloud::Ptr map, query;
+  LocalCloud map;
+  PointCloud::Ptr query;
   try {
     options = parseArguments(argc, argv);
     if (!options.config.empty()) loadPresetFile(config, options.config);
     for (const auto& assignment : options.overrides) applyAssignment(config, assignment);
     const auto problems = validateConfig(config);
     if (!problems.empty()) throw std::invalid_argument(problems.front());
-    const auto load = [](const std::string& path) {
-      std::vector<std::string> warnings;
-      PointCloud::Ptr cloud = loadCloud(path, &warnings);
-      for (const auto& warning : warnings) std::cerr << "mac_relocalize: warning: " << warning << "\n";
-      return cloud;
-    };
-    map = load(options.positional[0]);
-    query = load(options.positional[1]);
+    std::vector<std::string> warnings;
+    map = loadLocalCloud(options.positional[0], &warnings);
+    query = loadCloud(options.positional[1], &warnings);
+    for (const auto& warning : warnings) std::cerr << "mac_relocalize: warning: " << warning << "\n";
   } catch (const std::exception& e) {
     std::cerr << "mac_relocalize: " << e.what() << "\n" << kUsage;
     return 2;
@@ -82,12 +79,12 @@ int main(int argc, char** argv) {
 
   DescribedMap described;
   try {
-    described = describeMap(*map, config.features, config.relocalization);
+    described = describeMap(*map.cloud, config.features, config.relocalization, nullptr, map.origin);
   } catch (const std::exception& e) {
     std::cerr << "mac_relocalize: the map: " << e.what() << "\n";
     return 2;
   }
-  std::cout << std::fixed << std::setprecision(0) << "map: " << map->size() << " points, "
+  std::cout << std::fixed << std::setprecision(0) << "map: " << map.cloud->size() << " points, "
             << described.cloud.keypoints->size() << " keypoints, " << described.columns << " x "
             << described.rows << " places of " << std::setprecision(1) << described.cell_size
             << " m; described in " << std::setprecision(0) << described.describe_ms << " ms, ~"

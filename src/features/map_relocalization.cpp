@@ -360,7 +360,8 @@ std::size_t DescribedMap::bytes() const {
 }
 
 DescribedMap describeMap(const PointCloud& map, const FeatureParams& features,
-                         const RelocalizationParams& params, const StopFlag* stop) {
+                         const RelocalizationParams& params, const StopFlag* stop,
+                         const Eigen::Vector3d& map_origin) {
   const auto start = Clock::now();
   if (features.voxel_size <= 0.0)
     throw std::invalid_argument("a map is described with a given features.voxel_size, not auto");
@@ -380,6 +381,7 @@ DescribedMap describeMap(const PointCloud& map, const FeatureParams& features,
   throwIfStopped(stop, "indexing the map");
   // The exact search's packing, built now rather than by the first query.
   out.cloud.descriptor_index->packed();
+  out.origin += map_origin;
 
   out.cell_size = resolvedSpacing(params, features.voxel_size);
   Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());

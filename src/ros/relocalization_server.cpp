@@ -175,8 +175,8 @@ void RelocalizationServer::describe(const PointCloud::Ptr& cloud, const Eigen::V
     map_state_ = "describing " + source;
   }
   try {
-    DescribedMap described = describeMap(*cloud, config_.features, config_.relocalization, &map_stop_);
-    described.origin += origin;
+    DescribedMap described =
+        describeMap(*cloud, config_.features, config_.relocalization, &map_stop_, origin);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ROS_INFO_STREAM(kLog << "map ready in " << seconds << " s: " << described.cloud.keypoints->size()
                          << " keypoints, " << described.columns << " x " << described.rows << " places of "
@@ -205,9 +205,13 @@ void RelocalizationServer::onMapFile() {
   ROS_INFO_STREAM(kLog << "loading the map " << params_.map_file);
   try {
     std::vector<std::string> warnings;
-    const PointCloud::Ptr cloud = loadCloud(params_.map_file, &warnings);
+    const LocalCloud map = loadLocalCloud(params_.map_file, &warnings);
     for (const auto& w : warnings) ROS_WARN_STREAM(kLog << w);
-    describe(cloud, Eigen::Vector3d::Zero(), params_.map_file);
+    if (!map.origin.isZero()) {
+      ROS_INFO_STREAM(kLog << "the map's coordinates are global: described around (" << map.origin.transpose()
+                           << ") m, every output in " << params_.map_frame << " as the file's");
+    }
+    describe(map.cloud, map.origin, params_.map_file);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM(kLog << "no map: " << e.what());
     std::lock_guard<std::mutex> lock(map_mutex_);

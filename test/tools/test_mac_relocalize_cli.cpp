@@ -2,11 +2,13 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iomanip>
 #include <string>
 
 #include "cli_run.hpp"
 #include "mac_registration/core/pose_error.hpp"
 #include "mac_registration/core/text_io.hpp"
+#include "mac_registration/features/cloud_io.hpp"
 #include "temp_dir.hpp"
 
 namespace mac_registration {
@@ -58,6 +60,29 @@ TEST(MacRelocalizeCli, AScanOfTheMappedPlaceIsLocalized) {
       readTransformFile(dataPath("lidar/lidar_T_target_source_reference.txt"));
   EXPECT_LT(rotationErrorDeg(written, reference), 1.0);
   EXPECT_LT(translationError(written, reference), 0.2);
+}
+
+// The map in UTM coordinates, stored in float64 as surveyed maps are: read in double around a local origin,
+// the pose comes back in the file's coordinates.
+TEST(MacRelocalizeCli, AMapInGlobalCoordinatesAnswersInThem) {
+  TempDir dir;
+  const Eigen::Vector3d utm(512345.678, 4712345.678, 250.1);
+  const PointCloud::Ptr scan = loadCloud(dataPath("lidar/lidar_target_251370668.pcd"));
+  {
+    std::ofstream pcd(dir.file("utm.pcd"));
+    pcd << "VERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << scan->size()
+        << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << scan->size() << "\nDATA ascii\n"
+        << std::setprecision(12);
+    for (const auto& p : *scan) pcd << p.x + utm.x() << " " << p.y + utm.y() << " " << p.z + utm.z() << "\n";
+  }
+  const CliRun r = run(dir.file("utm.pcd") + " " + dataPath("lidar/lidar_source_251371071.pcd") + kPreset +
+                       " --out " + dir.file("T.txt"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  Eigen::Isometry3d expected = readTransformFile(dataPath("lidar/lidar_T_target_source_reference.txt"));
+  expected.pretranslate(utm);
+  const Eigen::Isometry3d written = readTransformFile(dir.file("T.txt"));
+  EXPECT_LT(rotationErrorDeg(written, expected), 1.0);
+  EXPECT_LT(translationError(written, expected), 0.2);
 }
 
 TEST(MacRelocalizeCli, AQueryTheMapCannotPlaceExitsOneAndWritesNothing) {

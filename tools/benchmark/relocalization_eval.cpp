@@ -72,13 +72,15 @@ std::vector<RelocalizationQuery> readRelocalizationTable(const std::string& path
 int runRelocalizationBenchmark(const std::string& map_path, const std::vector<RelocalizationQuery>& queries,
                                const RelocalizationSettings& s, std::ostream& out, std::ostream* csv) {
   resetPeakMemory();
-  PointCloud::Ptr map = loadCloud(map_path);
+  const LocalCloud file = loadLocalCloud(map_path);
+  PointCloud::Ptr map = file.cloud;
   if (s.crop_half_width > 0.0 && !queries.empty()) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const auto& q : queries) centre += q.T_map_query.translation();
-    map = cropped(*map, centre / double(queries.size()), s.crop_half_width);
+    map = cropped(*map, centre / double(queries.size()) - file.origin, s.crop_half_width);
   }
-  const DescribedMap described = describeMap(*map, s.config.features, s.config.relocalization);
+  const DescribedMap described =
+      describeMap(*map, s.config.features, s.config.relocalization, nullptr, file.origin);
   const double map_memory = peakMemoryMb();
   out << std::fixed << std::setprecision(1) << "map: " << map->size() << " points, "
       << described.cloud.keypoints->size() << " keypoints, described in " << described.describe_ms / 1e3

@@ -38,11 +38,14 @@ struct DescribedMap {
 };
 
 // Describes `map` (any frame whose z axis is up; may hold NaNs) with `features` (an auto voxel size is
-// refused: a map's keypoint spacing must not follow its extent) and builds the places' grid. Throws
+// refused: a map's keypoint spacing must not follow its extent) and builds the places' grid. `map_origin`:
+// where `map`'s own origin lies in the map frame, for a map read in global coordinates and shifted
+// (loadLocalCloud's origin); every pose and centre of the answers is in the map frame. Throws
 // std::invalid_argument for invalid parameters or a map with fewer than 3 finite points, Cancelled when
 // `stop` is raised before it is done.
 DescribedMap describeMap(const PointCloud& map, const FeatureParams& features,
-                         const RelocalizationParams& params, const StopFlag* stop = nullptr);
+                         const RelocalizationParams& params, const StopFlag* stop = nullptr,
+                         const Eigen::Vector3d& map_origin = Eigen::Vector3d::Zero());
 
 // One place of the map, as ranked for a query.
 struct PlaceCandidate {
