@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian packages, builds, and runs the demo headless: a bag made from the shipped scans (an
-# indoor 3DMatch pair and an outdoor lidar pair) is replayed with simulated time against two registration
-# nodes; each registration is printed with its transform, its error against the ground truth and its time.
-# With a display (DISPLAY set), rviz shows the indoor alignment; gui:=false keeps it headless.
+# indoor 3DMatch pair, an outdoor lidar pair and a campus drive) is replayed with simulated time against two
+# registration nodes and a relocalization node with a campus map; each result is printed with its transform,
+# its error against the ground truth and its time.
+# With a display (DISPLAY set), rviz shows the indoor alignment and the campus drive on its map; gui:=false
+# keeps it headless.
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
 exit_with_help_if_asked "$@"
@@ -24,7 +26,7 @@ while [ ! -f "$summary" ] && kill -0 "$launch" 2>/dev/null; do sleep 1; done
 kill -INT "$launch" 2>/dev/null || true
 wait "$launch" || true
 if [ ! -f "$summary" ]; then
-  echo "demo: roslaunch ended before every registration was reported"
+  echo "demo: roslaunch ended before every result was reported"
   exit 1
 fi
 echo

@@ -1,17 +1,20 @@
 #!/usr/bin/env python3
-"""Prints each demo registration with its error against the ground truth on <pair>/ground_truth."""
+"""Prints each demo registration with its error against the ground truth on <pair>/ground_truth, and the
+relocalization of the campus query in the campus map with its error against the query's pose."""
 import math
 import os
 
 import rospy
-from geometry_msgs.msg import TransformStamped
-from mac_registration.msg import RegistrationResult
+from geometry_msgs.msg import Transform, TransformStamped
+from mac_registration.msg import RegistrationResult, RelocalizationAnswer
 
 # (rotation [deg], translation [m]) bounds of the benchmark criterion of each preset.
 CRITERIA = {"indoor": (15.0, 0.30), "outdoor": (5.0, 0.60)}
 # What the <pair>/ground_truth topic holds: the 3DMatch ground truth indoors; outdoors no ground truth
 # exists, only another registration's estimate (fast_gicp's), so the demo says so.
 TRUTH_KIND = {"indoor": "ground truth", "outdoor": "reference (fast_gicp's estimate)"}
+# The relocalization benchmark's criterion (BENCHMARKS.md, "Finding a scan in a map").
+RELOCALIZATION_CRITERION = (5.0, 1.0)
 
 
 
@@ -38,6 +41,14 @@ def errors(estimate, truth):
     return angle, math.sqrt((ta.x - tb.x) ** 2 + (ta.y - tb.y) ** 2 + (ta.z - tb.z) ** 2)
 
 
+def pose_to_transform(pose):
+    """A geometry_msgs/Pose as the Transform the helpers above take."""
+    t = Transform()
+    t.translation.x, t.translation.y, t.translation.z = pose.position.x, pose.position.y, pose.position.z
+    t.rotation = pose.orientation
+    return t
+
+
 def matrix_text(t):
     r = quaternion_to_matrix(t.rotation)
     rows = [r[i] + [(t.translation.x, t.translation.y, t.translation.z)[i]] for i in range(3)] + [[0, 0, 0, 1]]
@@ -62,6 +73,12 @@ class Monitor:
             self.subscribers.append(rospy.Subscriber(
                 "/%s/mac_registration/result" % pair, RegistrationResult, self.on_result, callback_args=pair,
                 queue_size=10))
+        self.subscribers.append(rospy.Subscriber(
+            "/relocalization/ground_truth", TransformStamped, self.on_truth, callback_args="relocalization",
+            queue_size=10))
+        self.subscribers.append(rospy.Subscriber(
+            "/relocalization/mac_relocalization/result", RelocalizationAnswer, self.on_relocalization,
+            queue_size=10))
 
     def on_truth(self, msg, pair):
         self.truth[(pair, msg.header.stamp)] = msg.transform
@@ -88,9 +105,36 @@ class Monitor:
             lines.append("  " + msg.message)
         rospy.loginfo("\n".join(lines))
         self.summary.append(lines[0] + ("" if msg.success else " (%s)" % msg.message))
+        self.count_report()
+
+    def on_relocalization(self, msg):
+        # The query's pose is the same at every replay: any of its ground-truth messages will do.
+        truth = next((t for (pair, _), t in self.truth.items() if pair == "relocalization"), None)
+        lines = ["[relocalization] %s in %s (%s): %s" % (msg.query, msg.pose.header.frame_id or "the map",
+                                                          msg.trigger, msg.outcome)]
+        if msg.success:
+            estimate = pose_to_transform(msg.pose.pose.pose)
+            lines.append("  T_map_query:\n" + matrix_text(estimate))
+            if truth is not None:
+                re, te = errors(estimate, truth)
+                max_re, max_te = RELOCALIZATION_CRITERION
+                ok = re <= max_re and te <= max_te
+                self.within += ok
+                lines.append("  error against the query's pose: rotation %.2f deg, translation %.2f m -> %s "
+                             "(RE <= %g deg, TE <= %g m)" % (re, te, "within the criterion" if ok
+                                                             else "OUTSIDE the criterion", max_re, max_te))
+            lines.append("  confidence %.2f, %d places ranked; time %.0f ms" % (msg.confidence, len(msg.candidates),
+                                                                              msg.time_ms))
+        else:
+            lines.append("  " + msg.message)
+        rospy.loginfo("\n".join(lines))
+        self.summary.append(lines[0] + ("" if msg.success else " (%s)" % msg.message))
+        self.count_report()
+
+    def count_report(self):
         self.reported += 1
         if self.reported >= self.expected:
-            done = "demo: %d registrations, %d within the benchmark criterion" % (self.reported, self.within)
+            done = "demo: %d results, %d within the benchmark criterion" % (self.reported, self.within)
             rospy.loginfo(done)
             if self.summary_file:
                 with open(self.summary_file + ".part", "w") as f:

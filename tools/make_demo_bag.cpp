@@ -1,7 +1,7 @@
 // make_demo_bag OUT.bag DATA_DIR: writes the demo's rosbag from the shipped scan pairs, so that the bag is
 // made from files in the repository, not committed as a blob. Each pair is published every few seconds with
 // source and target at the same stamp (the demo node pairs them by stamp), with its ground truth on a
-// geometry_msgs/TransformStamped topic.
+// geometry_msgs/TransformStamped topic; and once a cycle a relocalization query with its pose in the map.
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
 #include <rosbag/bag.h>
@@ -31,6 +31,12 @@ constexpr DemoPair kPairs[] = {
     {"outdoor", "data/lidar/lidar_source_251371071.pcd", "data/lidar/lidar_target_251370668.pcd",
      "data/lidar/lidar_T_target_source_reference.txt", "lidar_source", "lidar_target"},
 };
+// The relocalization step: a local cloud of a campus drive (16 keyframes joined by odometry, in the newest
+// one's frame) to be found in the campus map that relocalization_node loads, with its pose in the map.
+constexpr const char* kQueryFile = "data/nclt_campus/query_window.pcd";
+constexpr const char* kQueryTruthFile = "data/nclt_campus/T_map_query.txt";
+constexpr const char* kQueryFrame = "campus_query";
+constexpr const char* kMapFrame = "campus_map";
 constexpr int kCycles = 3;
 constexpr double kPeriod = 4.0;  // [s] between two publications of the same pair
 
@@ -72,6 +78,19 @@ int main(int argc, char** argv) {
         truth.transform = toTransformMsg(readTransformFile(root + "/" + pair.truth_file));
         bag.write(ns + "/ground_truth", stamp, truth);
       }
+      const ros::Time stamp(1.0 + (cycle + 0.25) * kPeriod);
+      std_msgs::Header query_header;
+      query_header.stamp = stamp;
+      query_header.frame_id = kQueryFrame;
+      bag.write(
+          "/relocalization/scan", stamp,
+          toPointCloud2(*loadCloud(root + "/" + kQueryFile), Eigen::Isometry3d::Identity(), query_header));
+      geometry_msgs::TransformStamped truth;
+      truth.header = query_header;
+      truth.header.frame_id = kMapFrame;
+      truth.child_frame_id = kQueryFrame;
+      truth.transform = toTransformMsg(readTransformFile(root + "/" + kQueryTruthFile));
+      bag.write("/relocalization/ground_truth", stamp, truth);
     }
     bag.close();
   } catch (const std::exception& e) {
@@ -79,6 +98,6 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::cout << "make_demo_bag: wrote " << argv[1] << " (" << kCycles << " cycles of " << std::size(kPairs)
-            << " pairs)\n";
+            << " pairs and a relocalization query)\n";
   return 0;
 }

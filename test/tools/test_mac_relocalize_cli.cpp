@@ -85,6 +85,24 @@ TEST(MacRelocalizeCli, AMapInGlobalCoordinatesAnswersInThem) {
   EXPECT_LT(translationError(written, expected), 0.2);
 }
 
+// Real data: a drive through a campus junction minutes after it was mapped is found; a drive elsewhere on the
+// campus, 170 m from anything mapped, is not.
+TEST(MacRelocalizeCli, ACampusDriveIsFoundInItsMapAndOneElsewhereIsNot) {
+  TempDir dir;
+  const std::string map = dataPath("nclt_campus/map.pcd");
+  CliRun r =
+      run(map + " " + dataPath("nclt_campus/query_window.pcd") + kPreset + " --out " + dir.file("T.txt"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Eigen::Isometry3d truth = readTransformFile(dataPath("nclt_campus/T_map_query.txt"));
+  const Eigen::Isometry3d written = readTransformFile(dir.file("T.txt"));
+  // The benchmark's criterion (the ground truth is the run's own optimization, good to a few decimetres).
+  EXPECT_LT(rotationErrorDeg(written, truth), 5.0);
+  EXPECT_LT(translationError(written, truth), 1.0);
+  r = run(map + " " + dataPath("nclt_campus/unmapped_query_window.pcd") + kPreset);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_TRUE(contains(r.output, "not localized")) << r.output;
+}
+
 TEST(MacRelocalizeCli, AQueryTheMapCannotPlaceExitsOneAndWritesNothing) {
   // A 3 m room against a street: at 0.5 m voxels it holds a few dozen keypoints and matches nowhere.
   TempDir dir;
