@@ -32,6 +32,8 @@ DEBIAN_PACKAGES=(
   # for the shell tools on the node's outputs: rostopic echo /diagnostics and ~correspondence_markers,
   # rosservice call MANAGER/list, rosrun tf2_tools echo.py
   python3-diagnostic-msgs python3-visualization-msgs python3-nodelet python3-numpy
+  # scripts/loop_closure_bridge.py
+  python3-nav-msgs python3-message-filters
   # mac_benchmark's peers (--baseline open3d / fgr) and their test
   python3-open3d
 )

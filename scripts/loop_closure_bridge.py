@@ -1,0 +1,140 @@
+#!/usr/bin/env python3
+"""Loop closures for a SLAM stack, checked by the registration node's ~register_candidates.
+
+Keeps a keyframe each ~keyframe_distance metres of the stack's odometry (its scan, taken into the sensor's
+frame), and for each new one asks the registration node about the earlier keyframes within ~search_radius
+of it and older than ~min_time_gap (nearest first, ~max_candidates of them, the new scan described once).
+A verified candidate is a loop closure:
+  - `loop_closure_detection` (std_msgs/Float64MultiArray [stamp of the new keyframe, stamp of the old one]),
+    the shape of LIO-SAM's external loop input (remap it to lio_loop/loop_closure_detection): the stack
+    then closes the loop between the two keyframes itself;
+  - `~loop` (mac_registration/RegistrationResult): the relative pose T_old_new of the two sensor frames with
+    its covariance (the fine alignment's), for a back end that adds the factor itself.
+
+Inputs: `cloud` (sensor_msgs/PointCloud2, the scan in the odometry's frame, as LIO-SAM's
+lio_sam/mapping/cloud_registered) and `odometry` (nav_msgs/Odometry, the sensor's pose in that frame,
+lio_sam/mapping/odometry), paired by stamp.
+"""
+import math
+import threading
+
+import message_filters
+import numpy as np
+import rospy
+from mac_registration.msg import RegistrationResult
+from mac_registration.srv import RegisterCandidates, RegisterCandidatesRequest
+from nav_msgs.msg import Odometry
+from sensor_msgs import point_cloud2
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Float64MultiArray, Header
+
+
+def pose_matrix(pose):
+    """4x4 of a geometry_msgs/Pose."""
+    q, p = pose.orientation, pose.position
+    x, y, z, w = q.x, q.y, q.z, q.w
+    m = np.eye(4)
+    m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    m[:3, 3] = [p.x, p.y, p.z]
+    return m
+
+
+class Keyframe:
+    def __init__(self, stamp, pose, cloud):
+        self.stamp = stamp  # rospy.Time
+        self.pose = pose  # 4x4, the sensor in the odometry frame
+        self.cloud = cloud  # PointCloud2 in the sensor's frame
+
+
+def in_sensor_frame(cloud, pose, frame):
+    """The points of `cloud` (odometry frame) in the sensor frame at `pose`, as an xyz PointCloud2."""
+    points = np.array(list(point_cloud2.read_points(cloud, ("x", "y", "z"), skip_nans=True)), dtype=np.float64)
+    if points.size == 0:
+        points = np.zeros((0, 3))
+    inverse = np.linalg.inv(pose)
+    local = points @ inverse[:3, :3].T + inverse[:3, 3]
+    return point_cloud2.create_cloud_xyz32(Header(stamp=cloud.header.stamp, frame_id=frame), local.tolist())
+
+
+def candidates(keyframes, current, search_radius, min_time_gap, max_candidates):
+    """The earlier keyframes a loop may close with: within the radius, old enough, nearest first."""
+    near = []
+    for k in keyframes:
+        if (current.stamp - k.stamp).to_sec() < min_time_gap:
+            continue
+        distance = float(np.linalg.norm(k.pose[:3, 3] - current.pose[:3, 3]))
+        if distance <= search_radius:
+            near.append((distance, k))
+    near.sort(key=lambda pair: pair[0])
+    return [k for _, k in near[:max_candidates]]
+
+
+class LoopClosureBridge:
+    def __init__(self):
+        self.keyframe_distance = rospy.get_param("~keyframe_distance", 1.0)  # [m]
+        self.search_radius = rospy.get_param("~search_radius", 15.0)  # [m]
+        self.min_time_gap = rospy.get_param("~min_time_gap", 30.0)  # [s]
+        self.max_candidates = rospy.get_param("~max_candidates", 3)
+        self.sensor_frame = rospy.get_param("~sensor_frame", "keyframe")
+        service = rospy.get_param("~service", "mac_registration/register_candidates")
+        for name, value in (("keyframe_distance", self.keyframe_distance), ("search_radius", self.search_radius),
+                            ("min_time_gap", self.min_time_gap), ("max_candidates", self.max_candidates)):
+            if not value > 0:
+                raise ValueError("~%s must be > 0, got %r" % (name, value))
+        rospy.loginfo("loop_closure_bridge: waiting for %s", rospy.resolve_name(service))
+        rospy.wait_for_service(service)
+        self.register = rospy.ServiceProxy(service, RegisterCandidates)
+        self.keyframes = []
+        self.lock = threading.Lock()
+        self.detection_pub = rospy.Publisher("loop_closure_detection", Float64MultiArray, queue_size=10)
+        self.loop_pub = rospy.Publisher("~loop", RegistrationResult, queue_size=10)
+        cloud = message_filters.Subscriber("cloud", PointCloud2)
+        odometry = message_filters.Subscriber("odometry", Odometry)
+        self.sync = message_filters.ApproximateTimeSynchronizer([cloud, odometry], 10, 0.05)
+        self.sync.registerCallback(self.on_scan)
+
+    def on_scan(self, cloud, odometry):
+        pose = pose_matrix(odometry.pose.pose)
+        with self.lock:
+            if self.keyframes and np.linalg.norm(pose[:3, 3] - self.keyframes[-1].pose[:3, 3]) < self.keyframe_distance:
+                return
+            current = Keyframe(cloud.header.stamp, pose, in_sensor_frame(cloud, pose, self.sensor_frame))
+            earlier = candidates(self.keyframes, current, self.search_radius, self.min_time_gap,
+                                 self.max_candidates)
+            self.keyframes.append(current)
+        if earlier:
+            self.check(current, earlier)
+
+    def check(self, current, earlier):
+        request = RegisterCandidatesRequest(source=current.cloud, targets=[k.cloud for k in earlier])
+        try:
+            response = self.register(request)
+        except rospy.ServiceException as e:
+            rospy.logwarn("loop_closure_bridge: %s", e)
+            return
+        if not response.results or not response.results[0].success:
+            reason = response.results[0].message if response.results else response.message
+            rospy.loginfo("loop_closure_bridge: t=%.2f s, %d candidates, none verified: %s",
+                          current.stamp.to_sec(), len(earlier), reason)
+            return
+        best = response.results[0]
+        old = earlier[response.candidates[0]]
+        self.detection_pub.publish(Float64MultiArray(data=[current.stamp.to_sec(), old.stamp.to_sec()]))
+        self.loop_pub.publish(best)
+        t = best.transform.translation
+        rospy.loginfo("loop_closure_bridge: loop t=%.2f s -> t=%.2f s verified (confidence %.2f): "
+                      "T_old_new translation (%.2f, %.2f, %.2f) m, %.1f m apart by odometry",
+                      current.stamp.to_sec(), old.stamp.to_sec(), best.confidence, t.x, t.y, t.z,
+                      math.dist(current.pose[:3, 3], old.pose[:3, 3]))
+
+
+if __name__ == "__main__":
+    rospy.init_node("loop_closure_bridge")
+    try:
+        LoopClosureBridge()
+    except ValueError as e:
+        rospy.logfatal("loop_closure_bridge: %s", e)
+        raise SystemExit(2)
+    rospy.spin()
