@@ -499,7 +499,7 @@ void RelocalizationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatu
       status.add("map points", map_points_);
       status.add("map keypoints", map_->cloud.keypoints->size());
       status.add("map places", map_->columns * map_->rows);
-      status.addf("map description [s]", "%.1f", map_seconds_);
+      status.addf("map description [s]", "%.3f", map_seconds_);
       status.add("map memory [MiB]", map_->bytes() >> 20);
     }
   }

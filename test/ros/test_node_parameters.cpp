@@ -181,7 +181,7 @@ TEST(NodeParameters, TheReadmeTableIsTheTable) {
   const std::string readme = readFile(std::string(MAC_SOURCE_DIR) + "/README.md");
   const auto start = readme.find("The node's own parameters");
   ASSERT_NE(start, std::string::npos);
-  std::stringstream section(readme.substr(start, readme.find("\n## ", start) - start));
+  std::stringstream section(readme.substr(start, readme.find("\n#", start) - start));
   std::set<std::string> rows;
   for (std::string line; std::getline(section, line);) {
     if (line.rfind("| `", 0) != 0) continue;
