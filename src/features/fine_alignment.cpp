@@ -45,9 +45,12 @@ constexpr int kBlocks = 64;
 // unknowns are fixed long before that.
 constexpr int kMostPaired = 5000;
 
+// The steps turn about `centre` (in the target frame), the paired points' middle at the start: turned about
+// the frame's origin instead, a cloud kilometres from it (a map in a survey frame) would couple every
+// rotation with a large translation, and the normal equations would be too ill-conditioned to step in.
 NormalEquations linearise(const PointCloud& source, const PointCloud& target,
                           const pcl::PointCloud<pcl::Normal>& normals, const CloudGrid& grid,
-                          const Eigen::Isometry3d& T, int threads) {
+                          const Eigen::Isometry3d& T, const Eigen::Vector3d& centre, int threads) {
   const Eigen::Isometry3f Tf = T.cast<float>();
   const int stride = std::max(1, int((source.size() + kMostPaired - 1) / kMostPaired));
   const int n = int((source.size() + stride - 1) / stride);  // the paired: source[k * stride]
@@ -69,7 +72,7 @@ NormalEquations linearise(const PointCloud& source, const PointCloud& target,
       const Eigen::Vector3d moved = T * p;
       const double residual = normal.dot(moved - target[nearest].getVector3fMap().cast<double>());
       Eigen::Matrix<double, 6, 1> J;
-      J << moved.cross(normal), normal;
+      J << (moved - centre).cross(normal), normal;
       e.JtJ.selfadjointView<Eigen::Upper>().rankUpdate(J);
       e.Jtr += J * residual;
       e.squared_residuals += residual * residual;
@@ -102,14 +105,15 @@ constexpr double kConvergedShare = 1e-3;
 constexpr std::size_t kFewestPairs = 12;
 
 // The covariance of the pose T from the last linearisation, in the source frame: the steps perturb T on
-// the left, in the target frame (rotation, then translation), with covariance the residual variance
-// times the inverse of J^T J; a motion d_t on the left is d_s = Ad(T^-1) d_t on the right, which, in the
-// order (translation, rotation), is [R^T, -R^T [t]x; 0, R^T] d_t. Directions the surfaces leave free
-// (eigenvalues below a billionth of the largest) get kFreeVariance instead of the rounding noise an inverse
-// would give them.
+// the left, in the target frame turned about `centre` (rotation, then translation), with covariance the
+// residual variance times the inverse of J^T J; a motion d_c about the centre is d_s = Ad(T^-1 C) d_c on the
+// right (C: the translation to the centre), which, in the order (translation, rotation), is
+// [R^T, -R^T [t - c]x; 0, R^T] d_c. Directions the surfaces leave free (eigenvalues below a billionth of
+// the largest) get kFreeVariance instead of the rounding noise an inverse would give them.
 constexpr double kFreeVariance = 1e6;
 
-Eigen::Matrix<double, 6, 6> poseCovariance(const NormalEquations& e, const Eigen::Isometry3d& T) {
+Eigen::Matrix<double, 6, 6> poseCovariance(const NormalEquations& e, const Eigen::Isometry3d& T,
+                                           const Eigen::Vector3d& centre) {
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity() * kFreeVariance;
   if (e.pairs <= 6) return covariance;
   const double variance = e.squared_residuals / double(e.pairs - 6);
@@ -130,7 +134,7 @@ Eigen::Matrix<double, 6, 6> poseCovariance(const NormalEquations& e, const Eigen
   swap.block<3, 3>(0, 3).setIdentity();
   swap.block<3, 3>(3, 0).setIdentity();
   const Eigen::Matrix3d Rt = T.linear().transpose();
-  const Eigen::Vector3d t = T.translation();
+  const Eigen::Vector3d t = T.translation() - centre;
   Eigen::Matrix3d t_cross;
   t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
   Eigen::Matrix<double, 6, 6> to_source = Eigen::Matrix<double, 6, 6>::Zero();
@@ -155,7 +159,12 @@ FineAlignment alignPointToPlane(const PointCloud& source, const PointCloud& targ
   out.start = start;
   Eigen::Isometry3d T = start;
   const double distance = target_grid.radius();
-  NormalEquations e = linearise(source, target, target_normals, target_grid, T, threads);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  NormalEquations e = linearise(source, target, target_normals, target_grid, T, centre, threads);
+  if (e.pairs > 0) {
+    centre = T * momentsOf(e).mean;
+    e = linearise(source, target, target_normals, target_grid, T, centre, threads);
+  }
   for (int iteration = 0; iteration < max_iterations && e.pairs >= kFewestPairs; ++iteration) {
     // A damping of a millionth of the mean curvature keeps a direction the surfaces leave free (a
     // corridor's length, a floor's plane) where it is instead of letting rounding slide it.
@@ -167,11 +176,11 @@ FineAlignment alignPointToPlane(const PointCloud& source, const PointCloud& targ
     const double angle = x.head<3>().norm();
     if (angle > 0.0) step.linear() = Eigen::AngleAxisd(angle, x.head<3>() / angle).toRotationMatrix();
     step.translation() = x.tail<3>();
-    const Eigen::Isometry3d next = step * T;
+    const Eigen::Isometry3d next = Eigen::Translation3d(centre) * step * Eigen::Translation3d(-centre) * T;
     const double moved = rmsDisplacement(next, T, momentsOf(e));
     T = next;
     out.iterations = iteration + 1;
-    e = linearise(source, target, target_normals, target_grid, T, threads);
+    e = linearise(source, target, target_normals, target_grid, T, centre, threads);
     if (moved < kConvergedShare * distance) {
       out.converged = true;
       break;
@@ -183,7 +192,7 @@ FineAlignment alignPointToPlane(const PointCloud& source, const PointCloud& targ
   out.rotation_deg = rotationErrorDeg(start, T);
   out.translation_m = (start.translation() - T.translation()).norm();
   out.displacement = rmsDisplacement(start, T, momentsOf(e));
-  out.covariance = poseCovariance(e, T);
+  out.covariance = poseCovariance(e, T, centre);
   return out;
 }
 

@@ -158,6 +158,32 @@ TEST(FineAlignment, APoseNearTheRightOneSettlesOnIt) {
   EXPECT_LT(fine->rmse, 0.005);
 }
 
+TEST(FineAlignment, ARoomFarFromItsFramesOriginSettlesAsOneNearIt) {
+  // The same two scans 3.6 km from their frames' origin (a map in a local survey frame): a turn about the
+  // room's middle is a turn, not a 190 m swing, and the walls fix the six directions as well as near it.
+  const Eigen::Isometry3d far = shifted(3000.0, -2000.0, 50.0);
+  FeatureCorrespondences f = twoScansOfARoom();
+  for (auto* cloud : {&f.source_keypoints, &f.target_keypoints}) {
+    auto moved = pcl::make_shared<PointCloud>(**cloud);
+    for (auto& p : *moved) p.getVector3fMap() += far.translation().cast<float>();
+    *cloud = moved;
+  }
+  const Eigen::Isometry3d turn = turnedAndShifted(3.0, 0.04, -0.03, 0.03);
+  const std::optional<FineAlignment> near = AlignmentJudge(twoScansOfARoom(), kTau).refine(turn);
+  const std::optional<FineAlignment> fine = AlignmentJudge(f, kTau).refine(far * turn * far.inverse());
+  ASSERT_TRUE(near && fine);
+  EXPECT_TRUE(fine->converged);
+  EXPECT_LE(fine->iterations, near->iterations + 2);
+  EXPECT_LT(rotationErrorDeg(fine->T_target_source, Eigen::Isometry3d::Identity()), 0.2);
+  // At the room (a hundredth of a degree moves the frame's origin, 3.6 km away, by decimetres).
+  const Eigen::Vector3d room = far.translation();
+  EXPECT_LT((fine->T_target_source * room - room).norm(), 0.01);
+  // The rotation's uncertainty is the room's, wherever the frame's origin lies.
+  const double near_rotation = near->covariance.block<3, 3>(3, 3).trace();
+  const double far_rotation = fine->covariance.block<3, 3>(3, 3).trace();
+  EXPECT_NEAR(far_rotation, near_rotation, 0.1 * near_rotation);
+}
+
 TEST(FineAlignment, ThePoseDoesNotDependOnTheThreadCount) {
   const FeatureCorrespondences f = twoScansOfARoom();
   const Eigen::Isometry3d start = turnedAndShifted(2.0, 0.05, 0.02, -0.04);
