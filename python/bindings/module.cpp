@@ -6,6 +6,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -85,7 +87,8 @@ Eigen::Matrix3Xd toMatrix(const py::handle& object, const char* name) {
 // A cloud as the front end takes it. `viewpoint`: where its sensor was (the free-space verification needs
 // it; a PCD's VIEWPOINT); None = the origin of the cloud's frame, as for a scan in its sensor's frame.
 PointCloud::Ptr toCloud(const py::handle& object, const char* name, const py::object& viewpoint,
-                        const std::string& viewpoint_name) {
+                        const std::string& viewpoint_name,
+                        const Eigen::Vector3d& origin = Eigen::Vector3d::Zero()) {
   const py::array array = pointArray(object, name);
   if (array.shape(0) == 0)
     throw py::value_error(std::string(name) + ": the cloud is empty (shape (0, 3)): nothing to register");
@@ -96,17 +99,51 @@ PointCloud::Ptr toCloud(const py::handle& object, const char* name, const py::ob
   cloud->is_dense = false;
   forEachPoint(array, [&](Eigen::Index i, double x, double y, double z) {
     auto& p = (*cloud)[static_cast<std::size_t>(i)];
-    p.x = static_cast<float>(x);
-    p.y = static_cast<float>(y);
-    p.z = static_cast<float>(z);
+    p.x = static_cast<float>(x - origin.x());
+    p.y = static_cast<float>(y - origin.y());
+    p.z = static_cast<float>(z - origin.z());
   });
   if (!viewpoint.is_none()) {
-    const py::array_t<double, py::array::forcecast> v =
-        py::array_t<double, py::array::forcecast>::ensure(viewpoint);
+    const auto v = py::array_t<double, py::array::forcecast>::ensure(viewpoint);
     if (!v || v.size() != 3) throw py::value_error(viewpoint_name + ": expected 3 coordinates (x, y, z) [m]");
-    cloud->sensor_origin_ = Eigen::Vector4f(float(v.data()[0]), float(v.data()[1]), float(v.data()[2]), 1.0f);
+    cloud->sensor_origin_ = Eigen::Vector4f(float(v.data()[0] - origin.x()), float(v.data()[1] - origin.y()),
+                                            float(v.data()[2] - origin.z()), 1.0f);
   }
   return cloud;
+}
+
+// The local origin loadLocalCloud takes for a map in global coordinates (features/cloud_io.hpp): axis by
+// axis, 0 where every finite coordinate lies within kLocalFrameBound, else their median rounded to whole
+// metres. Taken from the array's own values (float64: a UTM map to the millimetre), before any float.
+Eigen::Vector3d localOriginOf(const py::handle& object, const char* name) {
+  const py::array array = pointArray(object, name);
+  std::vector<Eigen::Vector3d> finite;
+  finite.reserve(static_cast<std::size_t>(array.shape(0)));
+  forEachPoint(array, [&](Eigen::Index, double x, double y, double z) {
+    const Eigen::Vector3d p(x, y, z);
+    if (p.allFinite()) finite.push_back(p);
+  });
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  std::vector<double> values(finite.size());
+  for (int axis = 0; axis < 3; ++axis) {
+    bool within = true;
+    for (std::size_t i = 0; i < finite.size(); ++i) {
+      values[i] = finite[i][axis];
+      within = within && std::abs(values[i]) <= kLocalFrameBound;
+    }
+    if (within) continue;
+    const auto median = values.begin() + std::ptrdiff_t(values.size() / 2);
+    std::nth_element(values.begin(), median, values.end());
+    origin[axis] = std::round(*median);
+  }
+  return origin;
+}
+
+Eigen::Vector3d vector3Of(const py::object& object, const char* name) {
+  const auto v = py::array_t<double, py::array::forcecast>::ensure(object);
+  if (!v || v.size() != 3)
+    throw py::value_error(std::string(name) + ": expected 3 coordinates (x, y, z) [m]");
+  return Eigen::Vector3d(v.data()[0], v.data()[1], v.data()[2]);
 }
 
 // ---- arrays out
@@ -641,19 +678,30 @@ PYBIND11_MODULE(_mac, m) {
   m.def(
       "_describe_map",
       [](const py::handle& map_points, const std::optional<RegistrationConfig>& config,
-         const std::shared_ptr<StopToken>& stop) {
-        const PointCloud::Ptr cloud = toCloud(map_points, "map_points", py::none(), "");
+         const py::object& map_origin, const std::shared_ptr<StopToken>& stop) {
+        // Given an origin, the points are relative to it already (load_map's); else they are in the map
+        // frame and leave it for a local one where they lie far from zero, as mac_relocalize reads a map.
+        PointCloud::Ptr cloud;
+        Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+        if (!map_origin.is_none()) {
+          origin = vector3Of(map_origin, "map_origin");
+          cloud = toCloud(map_points, "map_points", py::none(), "");
+        } else {
+          origin = localOriginOf(map_points, "map_points");
+          cloud = toCloud(map_points, "map_points", py::none(), "", origin);
+        }
         auto handle = std::make_shared<MapHandle>();
         handle->config = configOrDefault(config);
         handle->points = cloud->size();
         {
           py::gil_scoped_release release;
-          handle->map =
-              describeMap(*cloud, handle->config.features, handle->config.relocalization, flagOf(stop));
+          handle->map = describeMap(*cloud, handle->config.features, handle->config.relocalization,
+                                    flagOf(stop), origin);
         }
         return handle;
       },
-      py::arg("map_points"), py::arg("config") = py::none(), py::kw_only(), py::arg("stop") = py::none());
+      py::arg("map_points"), py::arg("config") = py::none(), py::kw_only(),
+      py::arg("map_origin") = py::none(), py::arg("stop") = py::none());
 
   m.def(
       "_relocalize",
@@ -690,21 +738,25 @@ PYBIND11_MODULE(_mac, m) {
   // ---- files and the machine
   m.def(
       "_load_cloud",
-      [](const std::string& path) {
+      [](const std::string& path, bool local) {
         std::vector<std::string> warnings;
-        PointCloud::Ptr cloud;
+        LocalCloud cloud;
         try {
           py::gil_scoped_release release;
-          cloud = loadCloud(path, &warnings);
+          if (local)
+            cloud = loadLocalCloud(path, &warnings);
+          else
+            cloud.cloud = loadCloud(path, &warnings);
         } catch (const std::runtime_error& e) {
           // A missing, unreadable or malformed file: the message names it and the reason.
           PyErr_SetString(PyExc_OSError, e.what());
           throw py::error_already_set();
         }
-        const Eigen::Vector4f& o = cloud->sensor_origin_;
-        return py::make_tuple(rowsOf(*cloud), Eigen::Vector3d(o.x(), o.y(), o.z()), warnings);
+        const Eigen::Vector4f& o = cloud.cloud->sensor_origin_;
+        return py::make_tuple(rowsOf(*cloud.cloud), Eigen::Vector3d(o.x(), o.y(), o.z()), warnings,
+                              Eigen::Vector3d(cloud.origin));
       },
-      py::arg("path"));
+      py::arg("path"), py::arg("local") = false);
 
   m.def("kernels_in_use", &kernelsInUse, "The SIMD kernels this process runs (as mac_register prints them).");
 }

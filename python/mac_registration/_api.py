@@ -15,7 +15,15 @@ except ImportError as _error:  # a catkin build without the module: the messages
     _mac_import_error = _error
 
 # What the package exports: its functions, and the extension module's classes where it loaded.
-_FUNCTIONS = ["describe_map", "load_cloud", "register_clouds", "register_correspondences", "relocalize", "Cloud"]
+_FUNCTIONS = [
+    "Cloud",
+    "describe_map",
+    "load_cloud",
+    "load_map",
+    "register_clouds",
+    "register_correspondences",
+    "relocalize",
+]
 _EXTENSION_NAMES = [
     "Alternative",
     "Cancelled",
@@ -50,21 +58,29 @@ def _require_module():
 
 
 class Cloud(_NamedTuple):
-    """A cloud read by load_cloud(): its points and where its sensor was."""
+    """A cloud read by load_cloud() or load_map(): its points, where its sensor was, what it was read despite."""
 
-    points: "object"  # (N, 3) float32 [m], as the file stores them (NaN points kept)
-    viewpoint: "object"  # (3,) float64 [m]: a PCD's VIEWPOINT, else the origin
-    warnings: list  # what the file was read despite
+    points: "object"  # (N, 3) float32 [m]: the file's coordinates less `origin` (NaN points kept)
+    viewpoint: "object"  # (3,) float64 [m], in the points' frame: a PCD's VIEWPOINT, else the origin
+    warnings: list  # a sentence for each fault of the file it was read despite
+    origin: "object"  # (3,) float64 [m]: where the points' frame lies in the file's (load_cloud: zero)
 
 
 def load_cloud(path):
-    """Reads a .pcd, .ply or KITTI .bin cloud as mac_register does (features/cloud_io.hpp).
+    """Reads a .pcd, .ply or KITTI .bin cloud as mac_register does (loadCloud, features/cloud_io.hpp).
 
-    Returns a Cloud (points, viewpoint, warnings); register_clouds() takes it as it is, viewpoint
-    included. Raises OSError naming the file and the reason when it is missing or malformed.
+    Returns a Cloud; register_clouds() and the others take it as it is, viewpoint included. Raises OSError
+    naming the file and the reason when it is missing or malformed.
     """
-    points, viewpoint, warnings = _require_module()._load_cloud(_os.fspath(path))
-    return Cloud(points, viewpoint, list(warnings))
+    points, viewpoint, warnings, origin = _require_module()._load_cloud(_os.fspath(path), False)
+    return Cloud(points, viewpoint, list(warnings), origin)
+
+
+def load_map(path):
+    """Reads a map as mac_relocalize does (loadLocalCloud): one in global coordinates (UTM, stored in double)
+    comes in a local frame, its origin in `Cloud.origin`, which describe_map() takes along."""
+    points, viewpoint, warnings, origin = _require_module()._load_cloud(_os.fspath(path), True)
+    return Cloud(points, viewpoint, list(warnings), origin)
 
 
 def _config(config):
@@ -85,6 +101,11 @@ def _config(config):
 
 def _points_and_viewpoint(cloud, viewpoint):
     if isinstance(cloud, Cloud):
+        if cloud.origin is not None and any(cloud.origin):
+            raise ValueError(
+                f"a Cloud in a local frame (origin {list(cloud.origin)}, from load_map) goes to describe_map; "
+                "elsewhere give its points in one frame: cloud.points + cloud.origin"
+            )
         return cloud.points, cloud.viewpoint if viewpoint is None else viewpoint
     return cloud, viewpoint
 
@@ -122,14 +143,19 @@ def register_clouds(source, target, config=None, *, source_viewpoint=None, targe
     )
 
 
-def describe_map(map_points, config=None, *, stop=None):
+def describe_map(map_points, config=None, *, map_origin=None, stop=None):
     """Describes a map cloud once (keypoints, FPFH, the places' grid) for relocalize(): a DescribedMap.
 
-    The C++ describeMap(). `map_points`: (N, 3) [m], z up, or a Cloud. `config` as register_clouds()'s
-    (config/map_relocalization.yaml is the lidar map preset); an auto voxel size is refused.
+    The C++ describeMap(). `map_points`: (N, 3) [m] in the map frame, z up (a float64 array in global
+    coordinates is taken to a local frame as mac_relocalize takes a map file: the median, rounded, where
+    the coordinates go beyond 10 km), or the points less `map_origin` when that is given, or a Cloud from
+    load_map() (its origin along). Every pose of relocalize()'s answers is in the map frame. `config` as
+    register_clouds()'s (config/map_relocalization.yaml is the lidar map preset); an auto voxel size is
+    refused.
     """
-    map_points, _ = _points_and_viewpoint(map_points, None)
-    return _require_module()._describe_map(map_points, _config(config), stop=stop)
+    if isinstance(map_points, Cloud):
+        map_points, map_origin = map_points.points, map_points.origin if map_origin is None else map_origin
+    return _require_module()._describe_map(map_points, _config(config), map_origin=map_origin, stop=stop)
 
 
 def relocalize(map, query_points, config=None, *, search_centre=None, search_radius=None, viewpoint=None, stop=None):

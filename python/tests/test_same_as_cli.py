@@ -85,3 +85,43 @@ def test_relocalize_gives_mac_relocalizes_pose(mac_relocalize):
     assert answer.candidates and answer.candidates[answer.chosen].registered
     place = answer.candidates[answer.chosen]
     assert place.registration.status in (mr.Status.SUCCESS, mr.Status.UNVERIFIED)
+
+
+def write_double_pcd(path, points):
+    """An ascii PCD of float64 coordinates, as a map in global (UTM) coordinates is stored."""
+    header = (
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\n"
+        f"WIDTH {len(points)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(points)}\nDATA ascii\n"
+    )
+    with open(path, "w") as f:
+        f.write(header)
+        np.savetxt(f, points, fmt="%.17g")
+
+
+def test_a_map_in_global_coordinates_is_taken_as_mac_relocalize_takes_it(mac_relocalize, tmp_path):
+    # The lidar target scan put at a UTM-like place: float32 would space its points 0.5 m apart there.
+    shift = np.array([512345.0, 5401234.0, 251.0])
+    lidar_map = mr.load_cloud(repo_path("data/lidar/lidar_target_251370668.pcd")).points.astype(np.float64) + shift
+    map_file = tmp_path / "utm_map.pcd"
+    write_double_pcd(map_file, lidar_map)
+    query_file = repo_path("data/lidar/lidar_source_251371071.pcd")
+    preset = repo_path("config/map_relocalization.yaml")
+    run = run_tool(mac_relocalize, str(map_file), query_file, "--config", preset,
+                   "--set", "relocalization.time_limit=600")
+    assert run.returncode in (0, 1), run.stderr
+    T_cli = parse_matrix(run.stdout, "T_map_query")
+
+    config = mr.Config(preset, relocalization_time_limit=600)
+    query = mr.load_cloud(query_file)
+    from_array = mr.describe_map(lidar_map, config)  # float64 in the map frame
+    loaded = mr.load_map(map_file)
+    assert loaded.origin[0] != 0 and np.abs(loaded.points).max() < 1e4
+    from_file = mr.describe_map(loaded, config)
+    np.testing.assert_array_equal(from_array.origin, from_file.origin)
+    for described in (from_array, from_file):
+        answer = mr.relocalize(described, query)
+        assert answer.success == (run.returncode == 0), answer.message
+        np.testing.assert_allclose(answer.T_map_query, T_cli, rtol=0, atol=1e-9)
+    assert np.abs(T_cli[:3, 3] - shift).max() < 10.0  # the scan's pose: near the map's own origin
+    with pytest.raises(ValueError, match="local frame"):
+        mr.register_clouds(query, loaded)
