@@ -36,6 +36,8 @@ DEBIAN_PACKAGES=(
   python3-nav-msgs python3-message-filters
   # mac_benchmark's peers (--baseline open3d / fgr) and their test
   python3-open3d
+  # the Python module (python/): pybind11 and the interpreter's headers; its tests and the example's picture
+  pybind11-dev python3-dev python3-pytest python3-matplotlib
 )
 
 install_dependencies() {
