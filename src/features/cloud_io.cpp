@@ -84,8 +84,26 @@ cloud_file::FileCloud readAnyCloudFile(const std::string& path, std::vector<std:
   return file;
 }
 
-// The local origin loadLocalCloud documents. The median by nth_element on a copy of one axis at a time: 8
-// bytes a point more, for a moment.
+// Where a cloud's coordinates are measured from: the file's origin (loadCloud) or a local one.
+enum class Frame { kFile, kLocal };
+
+LocalCloud readCloud(const std::string& path, std::vector<std::string>* warnings, Frame frame) {
+  const cloud_file::FileCloud file = readAnyCloudFile(path, warnings);
+  LocalCloud local;
+  try {
+    if (frame == Frame::kLocal) local.origin = localOrigin(file.points);
+    local.cloud = cloud_file::toPointCloud(file, local.origin);
+  } catch (const std::bad_alloc&) {
+    throw std::runtime_error("cannot read cloud '" + path + "': out of memory reading it");
+  }
+  const std::string bound = coordinateBoundProblem(*local.cloud);
+  if (!bound.empty()) throw std::runtime_error("cannot use cloud '" + path + "': " + bound);
+  return local;
+}
+
+}  // namespace
+
+// The median by nth_element on a copy of one axis at a time: 8 bytes a point more, for a moment.
 Eigen::Vector3d localOrigin(const std::vector<Eigen::Vector3d>& points) {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   std::vector<double> values;
@@ -105,25 +123,6 @@ Eigen::Vector3d localOrigin(const std::vector<Eigen::Vector3d>& points) {
   }
   return origin;
 }
-
-// Where a cloud's coordinates are measured from: the file's origin (loadCloud) or a local one.
-enum class Frame { kFile, kLocal };
-
-LocalCloud readCloud(const std::string& path, std::vector<std::string>* warnings, Frame frame) {
-  const cloud_file::FileCloud file = readAnyCloudFile(path, warnings);
-  LocalCloud local;
-  try {
-    if (frame == Frame::kLocal) local.origin = localOrigin(file.points);
-    local.cloud = cloud_file::toPointCloud(file, local.origin);
-  } catch (const std::bad_alloc&) {
-    throw std::runtime_error("cannot read cloud '" + path + "': out of memory reading it");
-  }
-  const std::string bound = coordinateBoundProblem(*local.cloud);
-  if (!bound.empty()) throw std::runtime_error("cannot use cloud '" + path + "': " + bound);
-  return local;
-}
-
-}  // namespace
 
 PointCloud::Ptr loadCloud(const std::string& path, std::vector<std::string>* warnings) {
   return readCloud(path, warnings, Frame::kFile).cloud;

@@ -48,4 +48,8 @@ constexpr double kLocalFrameBound = 1.0e4;
 // to half a millimetre. A transform T into the local frame is Translation3d(origin) * T into the file's.
 LocalCloud loadLocalCloud(const std::string& path, std::vector<std::string>* warnings = nullptr);
 
+// The local origin loadLocalCloud takes for these points (non-finite ones ignored): for callers that hold
+// global coordinates in memory rather than in a file (the Python module's arrays).
+Eigen::Vector3d localOrigin(const std::vector<Eigen::Vector3d>& points);
+
 }  // namespace mac_registration
