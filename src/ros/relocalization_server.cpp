@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
@@ -18,6 +19,19 @@ namespace mac_registration {
 namespace {
 
 const char* const kLog = "mac_relocalization: ";
+
+// The process's peak resident memory [MiB] (VmHWM), 0 where /proc does not tell.
+std::size_t peakResidentMiB() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoul(line.substr(6)) >> 10;  // kB in the file
+  }
+  return 0;
+}
+
+// Seconds between two progress lines of a map description.
+constexpr double kProgressPeriod = 10.0;
 
 std::string joined(const std::vector<std::string>& lines) {
   std::string text;
@@ -120,6 +134,8 @@ RelocalizationServer::RelocalizationServer(ros::NodeHandle nh, ros::NodeHandle p
   diagnostics_.add("relocalization", this, &RelocalizationServer::reportDiagnostics);
   diagnostics_timer_ =
       nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { diagnostics_.update(); });
+  progress_timer_ = nh_.createWallTimer(ros::WallDuration(kProgressPeriod),
+                                        [this](const ros::WallTimerEvent&) { logMapProgress(); });
 
   source_sub_ = nh_.subscribe("source", 5, &RelocalizationServer::onSource, this);
   if (!params_.map_file.empty()) {
@@ -160,6 +176,7 @@ RelocalizationServer::~RelocalizationServer() {
   map_stop_ = true;
   map_sub_.shutdown();
   start_timer_.stop();
+  progress_timer_.stop();
   if (relocalization_spinner_) relocalization_spinner_->stop();
   relocalize_srv_.shutdown();
   initialpose_sub_.shutdown();
@@ -173,6 +190,9 @@ void RelocalizationServer::describe(const PointCloud::Ptr& cloud, const Eigen::V
   {
     std::lock_guard<std::mutex> lock(map_mutex_);
     map_state_ = "describing " + source;
+    describing_ = true;
+    describe_start_ = start;
+    describing_points_ = cloud->size();
   }
   try {
     DescribedMap described =
@@ -180,7 +200,8 @@ void RelocalizationServer::describe(const PointCloud::Ptr& cloud, const Eigen::V
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ROS_INFO_STREAM(kLog << "map ready in " << seconds << " s: " << described.cloud.keypoints->size()
                          << " keypoints, " << described.columns << " x " << described.rows << " places of "
-                         << described.cell_size << " m, ~" << described.bytes() / (1 << 20) << " MiB");
+                         << described.cell_size << " m, ~" << described.bytes() / (1 << 20)
+                         << " MiB (the process's peak: " << peakResidentMiB() << " MiB)");
     std_msgs::Header header;
     header.frame_id = params_.map_frame;
     header.stamp = ros::Time::now();
@@ -191,14 +212,27 @@ void RelocalizationServer::describe(const PointCloud::Ptr& cloud, const Eigen::V
     map_state_ = "ready: " + source;
     map_points_ = cloud->size();
     map_seconds_ = seconds;
+    describing_ = false;
   } catch (const Cancelled&) {
     std::lock_guard<std::mutex> lock(map_mutex_);
     map_state_ = stop_ ? "the node is shutting down" : "replaced by a newer map";
+    describing_ = false;
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM(kLog << "cannot describe the map from " << source << ": " << e.what());
     std::lock_guard<std::mutex> lock(map_mutex_);
     map_state_ = std::string("failed: ") + e.what() + (map_ ? " (the previous map stays in use)" : "");
+    describing_ = false;
   }
+}
+
+void RelocalizationServer::logMapProgress() {
+  std::lock_guard<std::mutex> lock(map_mutex_);
+  if (!describing_) return;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - describe_start_).count();
+  ROS_INFO_STREAM(kLog << "still describing the map (" << describing_points_
+                       << " points): " << std::lround(seconds) << " s so far, " << peakResidentMiB()
+                       << " MiB peak memory; queries wait for it");
 }
 
 void RelocalizationServer::onMapFile() {
@@ -495,6 +529,11 @@ void RelocalizationServer::reportDiagnostics(diagnostic_updater::DiagnosticStatu
       status.summary(diagnostic_msgs::DiagnosticStatus::OK, map_state_);
     }
     status.add("map", map_state_);
+    if (describing_) {
+      status.addf("map description so far [s]", "%.0f",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - describe_start_).count());
+    }
+    status.add("process peak memory [MiB]", peakResidentMiB());
     if (map_) {
       status.add("map points", map_points_);
       status.add("map keypoints", map_->cloud.keypoints->size());

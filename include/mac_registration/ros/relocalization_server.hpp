@@ -11,6 +11,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -83,6 +84,7 @@ class RelocalizationServer {
   void publishPose(const Query& query, const RelocalizationResult& result,
                    mac_registration::RelocalizationAnswer& msg);
   void reportDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void logMapProgress();
 
   ros::NodeHandle nh_, private_nh_;
   Params params_;
@@ -93,6 +95,10 @@ class RelocalizationServer {
   std::string map_state_;                    // what the map is doing: loading, its source, why it failed
   std::size_t map_points_ = 0;
   double map_seconds_ = 0.0;
+  // While a map is being described: when it started and the points it holds (the progress log).
+  bool describing_ = false;
+  std::chrono::steady_clock::time_point describe_start_;
+  std::size_t describing_points_ = 0;
   sensor_msgs::PointCloud2ConstPtr map_msg_;  // the last map taken from the topic
 
   std::mutex query_mutex_;
@@ -114,6 +120,7 @@ class RelocalizationServer {
   std::unique_ptr<MapOdomBroadcaster> map_odom_;
   diagnostic_updater::Updater diagnostics_;
   ros::Timer diagnostics_timer_;
+  ros::WallTimer progress_timer_;  // logs a long map description's progress
 
   StopFlag stop_{false};      // the node is shutting down
   StopFlag map_stop_{false};  // a newer map replaces the one being described
