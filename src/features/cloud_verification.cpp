@@ -20,40 +20,58 @@
 namespace mac_registration {
 namespace {
 
-// The nearest range a cloud's sensor saw in each direction from its viewpoint, on a grid of azimuth and
-// elevation: what lies nearer in that direction lies in space the sensor saw through.
+// Where a cloud's sensor saw through, on a grid of azimuth and elevation from its viewpoint: in each
+// direction, the range short of which a point lies in space the sensor saw as empty. That is the nearest
+// surface seen there less its uncertainty along the ray: tau across the surface, and for the ground seen
+// at a grazing angle tau / cos(incidence) along the ray (up to kGrazingCosine). A lidar a metre or two above
+// a road sees it at 5-15 deg, where a point 0.1 m above the ground lies 0.5-1 m nearer than the ground along
+// its ray: sparse keyframes' right poses were refused for it (doc/decisions/sparse-keyframes-free-space.md).
+// Walls and furniture keep tau: indoors, slanted surfaces' free space is what refuses turned rooms.
 class RangeImage {
  public:
-  RangeImage(const PointCloud& cloud, const Eigen::Vector3f& viewpoint, double bin_rad)
+  RangeImage(const PointCloud& cloud, const pcl::PointCloud<pcl::Normal>* normals,
+             const Eigen::Vector3f& viewpoint, double bin_rad, double tau)
       : viewpoint_(viewpoint), bin_(bin_rad) {
     cols_ = std::max(1, int(std::ceil(2.0 * M_PI / bin_)));
     rows_ = std::max(1, int(std::ceil(M_PI / bin_)));
-    nearest_.assign(std::size_t(cols_) * rows_, kUnseen);
-    for (const auto& p : cloud) {
+    boundary_.assign(std::size_t(cols_) * rows_, kUnseen);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
       int r = 0, c = 0;
       float range = 0.0f;
-      if (!cell(p.getVector3fMap(), r, c, range)) continue;
-      float& n = nearest_[index(r, c)];
-      n = std::min(n, range);
+      const Eigen::Vector3f p = cloud[i].getVector3fMap();
+      if (!cell(p, r, c, range)) continue;
+      float margin = float(tau);
+      if (normals) {
+        const Eigen::Vector3f n = (*normals)[i].getNormalVector3fMap();
+        const float incidence_cosine = std::abs(n.dot(p - viewpoint_)) / range;
+        if (std::isfinite(incidence_cosine) && std::abs(n.z()) >= kGroundNormalCosine)
+          margin = float(tau) / std::max(incidence_cosine, kGrazingCosine);
+      }
+      float& b = boundary_[index(r, c)];
+      b = std::min(b, range - margin);
     }
   }
 
-  // False where the sensor did not look towards `point`; else the nearest range seen in the 3 x 3
-  // cells around that direction (a point beside an edge is not in front of the far side) and the
-  // point's own range.
-  bool lookup(const Eigen::Vector3f& point, float& nearest_seen, float& range) const {
+  // False where the sensor did not look towards `point`; else the nearest boundary in the 3 x 3 cells
+  // around that direction (a point beside an edge is not in front of the far side) and the point's range.
+  bool lookup(const Eigen::Vector3f& point, float& boundary, float& range) const {
     int r = 0, c = 0;
-    if (!cell(point, r, c, range) || nearest_[index(r, c)] == kUnseen) return false;
-    nearest_seen = kUnseen;
+    if (!cell(point, r, c, range) || boundary_[index(r, c)] == kUnseen) return false;
+    boundary = kUnseen;
     for (int rr = std::max(0, r - 1); rr <= std::min(rows_ - 1, r + 1); ++rr) {
       for (int dc = -1; dc <= 1; ++dc)
-        nearest_seen = std::min(nearest_seen, nearest_[index(rr, (c + dc + cols_) % cols_)]);
+        boundary = std::min(boundary, boundary_[index(rr, (c + dc + cols_) % cols_)]);
     }
     return true;
   }
 
  private:
   static constexpr float kUnseen = std::numeric_limits<float>::infinity();
+  // The ground: a normal within 30 deg of the frame's z axis (REP-103: up in a robot's or a lidar's frame).
+  static constexpr float kGroundNormalCosine = 0.866f;
+  // Rays nearer parallel to the ground than this (17 deg) take it as 3.3 tau uncertain along them, not
+  // more: at 0.1 (10 tau) the NCLT map search verified a window 240 m off, whose free space had refused it.
+  static constexpr float kGrazingCosine = 0.3f;
 
   std::size_t index(int r, int c) const { return std::size_t(r) * cols_ + c; }
 
@@ -71,7 +89,7 @@ class RangeImage {
   Eigen::Vector3f viewpoint_;
   double bin_;
   int cols_ = 1, rows_ = 1;
-  std::vector<float> nearest_;
+  std::vector<float> boundary_;
 };
 
 double share(std::size_t part, std::size_t whole) { return whole > 0 ? double(part) / double(whole) : 0.0; }
@@ -132,7 +150,8 @@ struct AlignmentJudge::View {
     std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
     // Cells about tau wide at the median range: a few keypoints each on a surface facing the sensor.
     const double median_range = std::max(1e-3f, ranges[ranges.size() / 2]);
-    image = std::make_unique<RangeImage>(*cloud, viewpoint, std::clamp(tau / median_range, 0.002, 0.1));
+    image = std::make_unique<RangeImage>(*cloud, normals.get(), viewpoint,
+                                         std::clamp(tau / median_range, 0.002, 0.1), tau);
   }
 
   // How `placed` (points put into this cloud's frame) agree with what this sensor saw.
@@ -143,7 +162,7 @@ struct AlignmentJudge::View {
     std::size_t with_normals = 0, along = 0;
   };
   Agreement compare(const std::vector<Eigen::Vector3f>& placed,
-                    const std::vector<Eigen::Vector3f>* placed_normals, double tau, int threads) const {
+                    const std::vector<Eigen::Vector3f>* placed_normals, int threads) const {
     Agreement out;
     out.points = placed.size();
     const bool judge_normals = normals && placed_normals && placed_normals->size() == placed.size();
@@ -157,12 +176,12 @@ struct AlignmentJudge::View {
       int nearest = 0;
       float squared = 0.0f;
       const bool near = nearestWithin(near_grid, query, nearest, squared);
-      float nearest_seen = 0.0f, range = 0.0f;
-      const bool looked = image->lookup(placed[i], nearest_seen, range);
+      float boundary = 0.0f, range = 0.0f;
+      const bool looked = image->lookup(placed[i], boundary, range);
       on += near;
       seen += looked;
       seen_on += looked && near;
-      front += looked && !near && range < nearest_seen - tau;
+      front += looked && !near && range < boundary;
       if (near && judge_normals) {
         const float cosine = (*placed_normals)[i].dot((*normals)[nearest].getNormalVector3fMap());
         if (std::isfinite(cosine)) {
@@ -257,9 +276,9 @@ VerificationSignals AlignmentJudge::judge(const Eigen::Isometry3d& T) const {
     const Eigen::Vector3f q = inverse * p.getVector3fMap();
     if ((q - source_->viewpoint).norm() <= reach) target_in_source.push_back(q);
   }
-  const View::Agreement seen_by_target = target_->compare(
-      source_in_target, source_->normals ? &source_normals_in_target : nullptr, tau_, threads_);
-  const View::Agreement seen_by_source = source_->compare(target_in_source, nullptr, tau_, threads_);
+  const View::Agreement seen_by_target =
+      target_->compare(source_in_target, source_->normals ? &source_normals_in_target : nullptr, threads_);
+  const View::Agreement seen_by_source = source_->compare(target_in_source, nullptr, threads_);
   signals.aligned_overlap = share(seen_by_target.on_surface, seen_by_target.points);
   signals.seen_on_surface = target_->viewpoint_used && seen_by_target.seen >= kFewestSeen
                                 ? share(seen_by_target.seen_on_surface, seen_by_target.seen)

@@ -132,6 +132,86 @@ TEST(AlignmentSignals, TheSignalsDoNotDependOnTheThreadCount) {
   EXPECT_GT(one.free_space_violation, 0.0);
 }
 
+// A lidar's rings on flat ground 1 m below it (elevations -6 to -20 deg, every 1.33 deg, a point per
+// degree of azimuth from `azimuth_offset`), with the ground's normal: how a road looks from a car's roof.
+void addGround(float azimuth_offset, PointCloud& points, pcl::PointCloud<pcl::Normal>& normals) {
+  for (float elevation = -6.0f; elevation >= -20.0f; elevation -= 1.33f) {
+    const float distance = 1.0f / std::tan(-elevation * float(M_PI) / 180.0f);
+    for (float azimuth = azimuth_offset; azimuth < 360.0f; azimuth += 1.0f) {
+      pcl::PointXYZ p;
+      p.x = distance * std::cos(azimuth * float(M_PI) / 180.0f);
+      p.y = distance * std::sin(azimuth * float(M_PI) / 180.0f);
+      p.z = -1.0f;
+      points.push_back(p);
+      pcl::Normal n;
+      n.getNormalVector3fMap() = Eigen::Vector3f::UnitZ();
+      normals.push_back(n);
+    }
+  }
+}
+
+// A wall across x = `x` facing the origin, `half_width` to each side, from z = `bottom` to `top`.
+void addWall(float x, float half_width, float bottom, float top, float step, PointCloud& points,
+             pcl::PointCloud<pcl::Normal>& normals) {
+  for (float y = -half_width; y <= half_width; y += step) {
+    for (float z = bottom; z <= top; z += step) {
+      points.push_back(pcl::PointXYZ(x, y, z));
+      pcl::Normal n;
+      n.getNormalVector3fMap() = -Eigen::Vector3f::UnitX();
+      normals.push_back(n);
+    }
+  }
+}
+
+// Two lidar scans of a road (the rings from the same sensor, half a degree of azimuth apart) and, for the
+// target, a facade 30 m ahead that most of its points lie on: with the ranges that far, the free-space
+// grid's cells are finer than the ring spacing, as a sparse lidar's are.
+FeatureCorrespondences roadScans() {
+  FeatureCorrespondences f;
+  f.source_keypoints = pcl::make_shared<PointCloud>();
+  f.target_keypoints = pcl::make_shared<PointCloud>();
+  f.source_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  f.target_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  addGround(0.5f, *f.source_keypoints, *f.source_keypoint_normals);
+  addGround(0.0f, *f.target_keypoints, *f.target_keypoint_normals);
+  addWall(30.0f, 30.0f, -1.0f, 10.0f, 0.25f, *f.target_keypoints, *f.target_keypoint_normals);
+  return f;
+}
+
+constexpr double kRoadTau = 0.3;
+
+TEST(AlignmentSignals, GroundSeenAtAGrazingAngleIsNotTakenForFreeSpace) {
+  // The source scanned 2 m further along the road, its pose 0.1 m too high (an inlier pose); its rings
+  // fall between the target's. Along a ray that meets the ground at 6 deg, a point 0.1 m above it lies
+  // 0.96 m nearer than the ground seen there: not in free space, since the ground's own position along
+  // that ray is uncertain by tau / max(sin(6 deg), 0.3) = 1 m.
+  FeatureCorrespondences f = roadScans();
+  const Eigen::Isometry3d high = shifted(2.0, 0.3, 0.1);
+  // Below the 1.5 % a right pose stays under (7 % with tau along every ray).
+  EXPECT_LT(AlignmentJudge(f, kRoadTau).judge(high).free_space_violation, 0.015);
+  // A wall 5 m ahead in the source, where the target saw through to the facade: in free space.
+  addWall(5.0f, 3.0f, 0.0f, 2.0f, 0.1f, *f.source_keypoints, *f.source_keypoint_normals);
+  EXPECT_GT(AlignmentJudge(f, kRoadTau).judge(high).free_space_violation, 0.1);
+}
+
+TEST(AlignmentSignals, OnlyTheGroundGetsTheGrazingMargin) {
+  // The same scene turned on its side: the road becomes a wall beside the sensor (normal along y), seen
+  // at the same grazing angles but not ground, so points 0.1 m in front of it are in free space (beyond
+  // the 1.5 % a right pose stays under).
+  FeatureCorrespondences f = roadScans();
+  Eigen::Isometry3d on_side = Eigen::Isometry3d::Identity();
+  on_side.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Matrix3f turn = on_side.linear().cast<float>();
+  for (auto* cloud : {f.source_keypoints.get(), f.target_keypoints.get()}) {
+    for (auto& p : *cloud) p.getVector3fMap() = turn * p.getVector3fMap();
+  }
+  for (auto* normals : {f.source_keypoint_normals.get(), f.target_keypoint_normals.get()}) {
+    for (auto& n : *normals) n.getNormalVector3fMap() = turn * n.getNormalVector3fMap();
+  }
+  // The same pose turned alike: 0.1 m towards the sensor, which the wall at y = 1 now faces.
+  EXPECT_GT(AlignmentJudge(f, kRoadTau).judge(shifted(2.0, -0.1, 0.3)).free_space_violation, 0.02);
+}
+
 Eigen::Isometry3d turnedAndShifted(double degrees, double x, double y, double z) {
   Eigen::Isometry3d T = shifted(x, y, z);
   T.linear() =
