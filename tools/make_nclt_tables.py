@@ -12,6 +12,8 @@ Writes into --out:
   relocalize_windows.tsv   each revisit with the keyframes of the seconds before it (up to WINDOW, none of
                            the first pass) joined into its frame by the odometry (lidar_pose): windows/Q.pcd
   relocalize_*_every6.tsv  every sixth query of each
+  map_ten_times.pcd    with --larger-map: the first-pass map and 9 mirror images of it, 1-5 km away (a map
+                       ten times larger whose look-alikes keep every length but are no rigid copy)
 The keyframe files are referenced where they are (their headers say WIDTH 0 HEIGHT 0; mac_registration reads
 them with a warning). Needs numpy and Open3D (python3-open3d) for the map.
 """
@@ -94,6 +96,26 @@ def build_map(nclt, path, voxel):
     print("wrote %s (%d points, voxel %g m)" % (path, len(cloud.points), voxel))
 
 
+def build_larger_map(map_path, path, mirrors=9):
+    """The map and `mirrors` mirror images of it (x -> -x about its centre, turned by 36 deg steps), the k-th
+    centred 0.5 k + 0.5 km from it at 40 k deg: far apart, each place's look-alike is a reflection."""
+    import open3d as o3d
+    points = np.asarray(o3d.io.read_point_cloud(map_path).points)
+    centre = points.mean(axis=0)
+    local = points - centre
+    parts = [points]
+    for k in range(1, mirrors + 1):
+        turn, bearing, distance = np.radians(36.0 * k), np.radians(40.0 * k), 500.0 * k + 500.0
+        c, s = np.cos(turn), np.sin(turn)
+        rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.diag([-1.0, 1.0, 1.0])
+        shift = centre + distance * np.array([np.cos(bearing), np.sin(bearing), 0.0])
+        parts.append(local @ rotation.T + shift)
+    cloud = o3d.geometry.PointCloud()
+    cloud.points = o3d.utility.Vector3dVector(np.concatenate(parts))
+    o3d.io.write_point_cloud(path, cloud)
+    print("wrote %s (%d points: the map and %d mirror images)" % (path, len(cloud.points), mirrors))
+
+
 def poses(nclt, first_column):
     """Each keyframe's pose of the 7 columns from `first_column` (5: lidar_pose, 26: opti_pose_2)."""
     out = {}
@@ -134,6 +156,7 @@ def main():
     parser.add_argument("--nclt", default=os.path.join("..", "shared", "data", "nclt"))
     parser.add_argument("--out", default=os.path.join("build", "nclt"))
     parser.add_argument("--map-voxel", type=float, default=0.2, help="[m] leaf of the map's voxel grid")
+    parser.add_argument("--larger-map", action="store_true", help="also write map_ten_times.pcd")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     revisits = revisit_rows(args.nclt)
@@ -145,6 +168,8 @@ def main():
     write_table(os.path.join(args.out, "map.tsv"),
                 [("map %d" % q, keyframe(args.nclt, q), map_path, t) for q, _, t, _ in revisits[::6]])
     build_map(args.nclt, map_path, args.map_voxel)
+    if args.larger_map:
+        build_larger_map(map_path, os.path.join(args.out, "map_ten_times.pcd"))
     single = [("scan %d" % q, keyframe(args.nclt, q), t) for q, _, t, _ in revisits]
     windows = write_windows(args.nclt, args.out, revisits)
     for name, rows in (("single", single), ("windows", windows)):
