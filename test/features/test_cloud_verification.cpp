@@ -55,13 +55,19 @@ void addRoom(const Eigen::Vector3f& centre, float spacing, float offset, PointCl
   }
 }
 
-// Two scans of the same room, sampled on different grids, both seen from its middle.
-FeatureCorrespondences twoScansOfARoom() {
+// A pair of empty keypoint clouds with normals, for a test to fill.
+FeatureCorrespondences emptyScans() {
   FeatureCorrespondences f;
   f.source_keypoints = pcl::make_shared<PointCloud>();
   f.target_keypoints = pcl::make_shared<PointCloud>();
   f.source_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
   f.target_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  return f;
+}
+
+// Two scans of the same room, sampled on different grids, both seen from its middle.
+FeatureCorrespondences twoScansOfARoom() {
+  FeatureCorrespondences f = emptyScans();
   addRoom(Eigen::Vector3f::Zero(), 0.05f, 0.025f, *f.source_keypoints, *f.source_keypoint_normals);
   addRoom(Eigen::Vector3f::Zero(), 0.05f, 0.0f, *f.target_keypoints, *f.target_keypoint_normals);
   return f;
@@ -167,11 +173,7 @@ void addWall(float x, float half_width, float bottom, float top, float step, Poi
 // target, a facade 30 m ahead that most of its points lie on: with the ranges that far, the free-space
 // grid's cells are finer than the ring spacing, as a sparse lidar's are.
 FeatureCorrespondences roadScans() {
-  FeatureCorrespondences f;
-  f.source_keypoints = pcl::make_shared<PointCloud>();
-  f.target_keypoints = pcl::make_shared<PointCloud>();
-  f.source_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
-  f.target_keypoint_normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  FeatureCorrespondences f = emptyScans();
   addGround(0.5f, *f.source_keypoints, *f.source_keypoint_normals);
   addGround(0.0f, *f.target_keypoints, *f.target_keypoint_normals);
   addWall(30.0f, 30.0f, -1.0f, 10.0f, 0.25f, *f.target_keypoints, *f.target_keypoint_normals);
