@@ -84,6 +84,12 @@ class Latest {
           std::lock_guard<std::mutex> lock(mutex_);
           message_ = m;
         })) {}
+  // Waits up to `seconds` until a publisher is connected: a message sent before that is not received.
+  bool connected(double seconds) {
+    const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(seconds);
+    while (sub_.getNumPublishers() == 0 && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+    return sub_.getNumPublishers() > 0;
+  }
   // Waits up to `seconds` for a message.
   boost::shared_ptr<const Message> wait(double seconds) {
     const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(seconds);
@@ -105,6 +111,7 @@ class Latest {
 
 TEST_F(RelocalizationTest, LocalizesAScanAndPublishesThePoseAndMapToOdom) {
   Latest<geometry_msgs::PoseWithCovarianceStamped> pose(nh_, "/mac_relocalization/pose");
+  ASSERT_TRUE(pose.connected(10.0));  // ~pose is not latched
   const RelocalizationAnswer r = call(cloudMsg("lidar/lidar_source_251371071.pcd", "lidar"));
   ASSERT_TRUE(r.success) << r.outcome << ": " << r.message;
   EXPECT_EQ(r.outcome, "localized");
