@@ -474,8 +474,49 @@ void alignFinely(const PoseWitness& witness, double tau, MacResult& result) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+namespace {
+
+// Of two judgements by the clouds, each signal at its less favourable value (NaN where neither measured
+// it); the fields a witness does not measure are taken from `a`.
+VerificationSignals lessFavourable(const VerificationSignals& a, const VerificationSignals& b) {
+  const auto pick = [](double x, double y, bool higher_is_better) {
+    if (std::isnan(x)) return y;
+    if (std::isnan(y)) return x;
+    return higher_is_better ? std::min(x, y) : std::max(x, y);
+  };
+  VerificationSignals worse = a;
+  worse.aligned_overlap = pick(a.aligned_overlap, b.aligned_overlap, true);
+  worse.seen_on_surface = pick(a.seen_on_surface, b.seen_on_surface, true);
+  worse.surface_agreement = pick(a.surface_agreement, b.surface_agreement, true);
+  worse.free_space_violation = pick(a.free_space_violation, b.free_space_violation, false);
+  return worse;
+}
+
+}  // namespace
+
 void hearWitness(const PoseWitness& witness, MacResult& result) {
-  takeMeasured(witness.judge(result.T_target_source), result.verification);
+  VerificationSignals heard = witness.judge(result.T_target_source);
+  // A fine alignment that only polished the pose (a move within the move term's free band) leaves one
+  // pose judged twice: the least-squares fit can draw points out of another scan's free space or onto its
+  // surfaces at a wrong pose as well (turned rooms refused at the pose the correspondences gave were
+  // accepted at their polish), so a contradiction seen at either counts. A fine alignment that moved the
+  // pose further reports another pose than the one the correspondences gave, coarse where the clouds are
+  // sparse: the clouds judge the pose reported, and the move counts against it. Only the surfaces' agreement
+  // is never taken from the fine pose alone: a point-to-plane fit turns surfaces along each other wherever it
+  // ends (a kitchen corner turned 92 degrees into a street), so there it is no evidence of its own
+  // (doc/decisions/judging-the-fine-pose.md).
+  const FineAlignment& fine = result.fine_alignment;
+  if (fine.ran && fine.iterations > 0) {
+    const VerificationSignals at_fine = witness.judge(fine.T_target_source);
+    const VerificationSignals worse = lessFavourable(heard, at_fine);
+    if (result.verification.fine_alignment_move > kMoveFree) {
+      heard = at_fine;
+      heard.surface_agreement = worse.surface_agreement;
+    } else {
+      heard = worse;
+    }
+  }
+  takeMeasured(heard, result.verification);
   for (std::string& warning : witness.warnings()) result.warnings.push_back(std::move(warning));
 }
 

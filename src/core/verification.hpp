@@ -83,7 +83,9 @@ void decideVerification(const VerificationParams& params, MacResult& result);
 void alignFinely(const PoseWitness& witness, double tau, MacResult& result);
 
 // The signals `witness` measured (its non-NaN fields) into result.verification, and its warnings into
-// result.warnings.
+// result.warnings. Where result.fine_alignment moved the pose, the witness judges both poses: within the
+// move term's free band each signal counts at the less favourable of the two, beyond it at the fine pose
+// (the surfaces' agreement still at the less favourable).
 void hearWitness(const PoseWitness& witness, MacResult& result);
 
 // The verification stage of the core: measureCorrespondenceSignals(), the witness if any, then the one

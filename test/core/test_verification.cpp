@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -602,6 +603,87 @@ TEST(Witness, ItsTimeIsTheVerificationsAndCountsOnceInTheTotal) {
                         t.verification_ms;
   EXPECT_GE(t.total_ms, stages - 1e-6);
   EXPECT_LT(t.total_ms, stages + 200.0);  // the witness's 200 ms are not in it twice
+}
+
+// A witness whose fine alignment shifts the pose by `shift` [m] along x, and whose clouds show one set of
+// signals at the pose it was given and another at the pose its fine alignment reached.
+class PolishingWitness : public PoseWitness {
+ public:
+  PolishingWitness(double shift, const VerificationSignals& at_start, const VerificationSignals& at_fine)
+      : shift_(shift), at_start_(at_start), at_fine_(at_fine) {}
+
+  std::optional<FineAlignment> refine(const Eigen::Isometry3d& T) const override {
+    FineAlignment fine;
+    fine.ran = fine.converged = true;
+    fine.iterations = 5;
+    fine.start = T;
+    fine.T_target_source = Eigen::Translation3d(shift_, 0.0, 0.0) * T;
+    fine.translation_m = fine.displacement = shift_;
+    fine_ = fine.T_target_source;
+    return fine;
+  }
+  VerificationSignals judge(const Eigen::Isometry3d& T) const override {
+    judged.push_back(T);
+    return T.isApprox(fine_) ? at_fine_ : at_start_;
+  }
+
+  mutable std::vector<Eigen::Isometry3d> judged;
+
+ private:
+  double shift_;
+  VerificationSignals at_start_, at_fine_;
+  mutable Eigen::Isometry3d fine_ = Eigen::Isometry3d::Identity();
+};
+
+TEST(Witness, APolishedPoseIsJudgedAtBothPosesAndAContradictionAtEitherCounts) {
+  // A least-squares polish can draw a wrong pose's points out of the other scan's free space: where the
+  // fine alignment only polished the pose (within 1.5 tau), what either pose shows counts against it.
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.1, 7));
+  const MacParams params = test::roomScaleParams();
+  const double tau = params.evaluation.inlier_threshold;
+  VerificationSignals contradiction = goodWitnessSignals();
+  contradiction.free_space_violation = 0.1;
+  for (const bool contradiction_at_start : {true, false}) {
+    const PolishingWitness witness(0.5 * tau, contradiction_at_start ? contradiction : goodWitnessSignals(),
+                                   contradiction_at_start ? goodWitnessSignals() : contradiction);
+    const MacResult r = registerCorrespondences(problem.correspondences, params, nullptr, &witness);
+    ASSERT_EQ(witness.judged.size(), 2u);
+    EXPECT_TRUE(witness.judged[0].isApprox(r.fine_alignment.start));
+    EXPECT_TRUE(witness.judged[1].isApprox(r.fine_alignment.T_target_source));
+    EXPECT_EQ(r.status, RegistrationStatus::kUnverified) << contradiction_at_start << ": " << r.message;
+    EXPECT_DOUBLE_EQ(r.verification.free_space_violation, 0.1);
+    EXPECT_DOUBLE_EQ(r.verification.aligned_overlap, goodWitnessSignals().aligned_overlap);
+  }
+  const PolishingWitness agreeing(0.5 * tau, goodWitnessSignals(), goodWitnessSignals());
+  EXPECT_TRUE(registerCorrespondences(problem.correspondences, params, nullptr, &agreeing).success);
+}
+
+TEST(Witness, APoseTheFineAlignmentMovedFarIsJudgedWhereItEnded) {
+  // A coarse pose (sparse scans) that the fine alignment carried beyond 1.5 tau is another pose than the
+  // one reported: the clouds speak for the fine pose, and the move itself counts against it.
+  const SyntheticProblem problem = makeSyntheticProblem(test::bunnyMesh(), test::roomScaleSpec(1000, 0.1, 7));
+  const MacParams params = test::roomScaleParams();
+  const double tau = params.evaluation.inlier_threshold;
+  VerificationSignals coarse = goodWitnessSignals();
+  coarse.free_space_violation = 0.1;
+  const PolishingWitness witness(2.0 * tau, coarse, goodWitnessSignals());
+  const MacResult r = registerCorrespondences(problem.correspondences, params, nullptr, &witness);
+  EXPECT_EQ(witness.judged.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.verification.free_space_violation, goodWitnessSignals().free_space_violation);
+  EXPECT_NEAR(r.verification.fine_alignment_move, 2.0, 1e-9);
+  EXPECT_NEAR(term(r.evidence, "fine_alignment_move").log_odds, -2.0, 1e-9);  // 4 per tau beyond 1.5
+  EXPECT_TRUE(r.success) << r.message;
+  EXPECT_TRUE(r.T_target_source.isApprox(r.fine_alignment.T_target_source));
+
+  // A point-to-plane fit turns surfaces along each other wherever it ends: their agreement at the fine pose
+  // alone is no evidence, the less favourable of the two counts.
+  VerificationSignals crossing = goodWitnessSignals();
+  crossing.surface_agreement = 0.15;
+  const PolishingWitness turned(2.0 * tau, crossing, goodWitnessSignals());
+  const MacResult t = registerCorrespondences(problem.correspondences, params, nullptr, &turned);
+  EXPECT_DOUBLE_EQ(t.verification.surface_agreement, 0.15);
+  EXPECT_DOUBLE_EQ(t.verification.free_space_violation, goodWitnessSignals().free_space_violation);
+  EXPECT_FALSE(t.success) << t.message;
 }
 
 TEST(ChanceLevel, AChancePoseIsRejectedEvenWhereTheCloudsWouldAgree) {

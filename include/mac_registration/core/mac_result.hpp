@@ -179,7 +179,7 @@ struct MacResult {
   // Maps source points into the target frame (as tf2's lookupTransform(target, source)). Identity, and
   // not to be used, unless success, or status kTooFewInliers or kUnverified (then the best transform found,
   // unverified). Where a fine alignment ran, the pose it ended at (fine_alignment.start is the one the
-  // correspondences gave and the verification decided on).
+  // correspondences gave; the clouds judged both).
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
   // The consensus of the correspondences' pose (fine_alignment.start where it ran).
   std::vector<int> inlier_indices;  // indices into the caller's correspondences
