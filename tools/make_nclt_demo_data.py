@@ -14,10 +14,15 @@ Writes into --out (all PCD binary_compressed, float32 x y z, metres):
                                 in the frame of keyframe QUERY, downsampled
   T_map_query.txt               its ground truth: opti_pose_2 of keyframe QUERY (4x4, maps the query into the map)
   unmapped_query_window.pcd     a window the same way from a place the crop does not cover
+  revisit_query.pcd,            a loop-closure pair: revisit keyframe REVISIT and its nearest earlier keyframe
+  revisit_earlier.pcd           (revisits.tsv), copied as the run stores them (thinned HDL-32E scans, each in
+                                its own body frame)
+  T_earlier_query.txt           their relative pose from opti_pose_2 (4x4, maps the query into the earlier scan)
 Needs numpy and Open3D.
 """
 import argparse
 import os
+import shutil
 import sys
 
 import numpy as np
@@ -69,6 +74,7 @@ def main():
     parser.add_argument("--map-voxel", type=float, default=0.5, help="[m] leaf of the cropped map")
     parser.add_argument("--query", type=int, default=610, help="revisit keyframe the query window ends at")
     parser.add_argument("--unmapped", type=int, default=1000, help="keyframe the unmapped window ends at")
+    parser.add_argument("--revisit", type=int, default=559, help="revisit keyframe of the loop-closure pair")
     parser.add_argument("--query-voxel", type=float, default=0.4, help="[m] leaf of the query windows")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
@@ -85,7 +91,23 @@ def main():
     print("wrote %s (opti_pose_2 of keyframe %d)" % (path, args.query))
     write(os.path.join(args.out, "unmapped_query_window.pcd"),
           window(args.nclt, odometry, args.unmapped, args.query_voxel))
+    copy_revisit(args.nclt, args.revisit, args.out)
     return 0
+
+
+def copy_revisit(nclt, query, out):
+    """The revisit keyframe `query`, its nearest earlier keyframe and their relative pose, from revisits.tsv."""
+    with open(os.path.join(nclt, "revisits.tsv")) as f:
+        rows = [line.split("\t") for line in f if line.strip() and not line.startswith("#")]
+    row = next((r for r in rows if int(r[0]) == query), None)
+    if row is None:
+        sys.exit("keyframe %d is not a revisit in %s/revisits.tsv" % (query, nclt))
+    earlier = int(row[1])
+    for frame, name in ((query, "revisit_query.pcd"), (earlier, "revisit_earlier.pcd")):
+        shutil.copyfile(os.path.join(nclt, "keyframes", "%d.pcd" % frame), os.path.join(out, name))
+    path = os.path.join(out, "T_earlier_query.txt")
+    np.savetxt(path, np.array(row[4].split(), dtype=float).reshape(4, 4), fmt="%.9f")
+    print("wrote %s (keyframe %d into keyframe %d)" % (path, query, earlier))
 
 
 if __name__ == "__main__":

@@ -534,6 +534,25 @@ TEST(ShippedPairs, AnIndoorFragmentInAStreetScanIsRejected) {
   EXPECT_TRUE(contains(m.message, "lies along them")) << m.message;
 }
 
+TEST(ShippedPairs, ASparseKeyframesCoarsePoseIsJudgedWhereTheFineAlignmentTookIt) {
+  // NCLT keyframes 559 -> 323 (HDL-32E scans thinned to 3-4k points by the mapping run, the place driven
+  // again in reverse, 0.37 m apart): the correspondences give a pose ~7 deg off whose points lie a few
+  // percent in the other scan's free space, and the fine alignment carries it beyond 1.5 tau to within a
+  // degree. Judged at the pose the correspondences gave, this right pose came back unverified.
+  RegistrationConfig outdoor;
+  loadPresetFile(outdoor, std::string(MAC_CONFIG_DIR) + "/outdoor_lidar.yaml");
+  const PointCloud::Ptr query = loadCloud(demoDataPath("nclt_campus/revisit_query.pcd"));
+  const PointCloud::Ptr earlier = loadCloud(demoDataPath("nclt_campus/revisit_earlier.pcd"));
+  const Eigen::Isometry3d truth = readTransformFile(demoDataPath("nclt_campus/T_earlier_query.txt"));
+  const MacResult m = registerClouds(*query, *earlier, outdoor.features, outdoor.mac).registration;
+  ASSERT_TRUE(m.fine_alignment.ran) << m.message;
+  EXPECT_GT(rotationErrorDeg(m.fine_alignment.start, truth), 3.0);
+  EXPECT_GT(m.verification.fine_alignment_move, 1.5);
+  EXPECT_TRUE(m.success) << m.message;
+  EXPECT_LT(rotationErrorDeg(m.T_target_source, truth), 2.0);
+  EXPECT_LT(translationError(m.T_target_source, truth), 0.5);
+}
+
 TEST(ShippedPairs, ARightPairsSurfacesAgree) {
   const CloudRegistrationResult r = registerIndoor(*fragments().fragment_4, *fragments().fragment_0);
   ASSERT_TRUE(r.registration.success) << r.registration.message;
