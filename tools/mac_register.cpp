@@ -92,8 +92,11 @@ void printFrontEnd(std::ostream& out, const mac_registration::FrontEndStats& s, 
     out << "resolution " << s.resolution << " m, ";
   else
     out << "resolution not estimated, ";
-  out << correspondences << " correspondences (" << s.rejected_mutual << " rejected by the mutual check, "
-      << s.rejected_ratio << " by the ratio test, " << s.truncated << " beyond max_correspondences)\n"
+  // The radii the descriptors were computed with, when a sparse cloud widened them.
+  if (s.support_scale != 1.0) out << "radii widened " << std::setprecision(2) << s.support_scale << "x, ";
+  out << std::setprecision(4) << correspondences << " correspondences (" << s.rejected_mutual
+      << " rejected by the mutual check, " << s.rejected_ratio << " by the ratio test, " << s.truncated
+      << " beyond max_correspondences)\n"
       << std::setprecision(2) << "front-end time [ms]: resolution " << s.times.resolution_ms
       << ", downsample " << s.times.downsample_ms << ", normals " << s.times.normals_ms << ", fpfh "
       << s.times.features_ms << ", matching " << s.times.matching_ms << ", total " << s.times.total_ms

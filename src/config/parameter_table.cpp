@@ -137,6 +137,9 @@ std::vector<Parameter> makeTable() {
            Range::above(0), "normal estimation radius"),
       real("features.feature_radius_factor", MAC_FIELD(features.feature_radius_factor), "x voxel_size",
            Range::above(0), "FPFH radius, wider than features.normal_radius_factor"),
+      count("features.min_feature_neighbours", MAC_FIELD(features.min_feature_neighbours), "keypoints",
+            Range::atLeast(0).withZeroMeaning("the radii as given"),
+            "fewest keypoints in the median keypoint's FPFH sphere: both radii grow for sparser clouds"),
       real("features.support_voxel_factor", MAC_FIELD(features.support_voxel_factor), "x voxel_size",
            Range::atLeast(1).withHint(
                "1 = the keypoints themselves; above 1, < features.feature_radius_factor"),

@@ -19,6 +19,7 @@
 #include "mac_registration/features/normals.hpp"
 #include "mac_registration/features/resolution.hpp"
 #include "mac_registration/features/voxel_downsampling.hpp"
+#include "radius_search.hpp"
 
 namespace mac_registration {
 namespace {
@@ -123,12 +124,63 @@ double autoVoxelSize(const PointCloud& cloud, const StopFlag* stop) {
   return voxel;
 }
 
+namespace {
+
+// Keypoints whose K-th neighbour distance the support scale is the median of: an even subsample, as the
+// median converges long before every keypoint of a dense scan is asked.
+constexpr std::size_t kSupportScaleSamples = 1000;
+
+// The median over the keypoints `which` of the distance to their `wanted`-th nearest keypoint (itself the
+// first), or infinity where more than half have fewer than `wanted` within `reach` [m].
+double medianReach(const PointCloud& keypoints, const std::vector<int>& which, std::size_t wanted,
+                   double reach, int threads, const StopFlag* stop) {
+  const CloudGrid grid = cloudGrid(keypoints, reach);
+  const std::vector<Neighbourhood> found = searchAll(grid, keypoints, which, false, threads, stop);
+  std::vector<double> reaches;
+  reaches.reserve(which.size());
+  for (const int i : which) {
+    std::vector<float> squared = found[i].squared_distances;
+    if (squared.size() < wanted) {
+      reaches.push_back(std::numeric_limits<double>::infinity());
+      continue;
+    }
+    std::nth_element(squared.begin(), squared.begin() + (wanted - 1), squared.end());
+    reaches.push_back(std::sqrt(double(squared[wanted - 1])));
+  }
+  std::nth_element(reaches.begin(), reaches.begin() + reaches.size() / 2, reaches.end());
+  return reaches[reaches.size() / 2];
+}
+
+// The factor both radii grow by so that the median keypoint's FPFH sphere holds
+// params.min_feature_neighbours keypoints (itself included), rounded to a quarter octave (a cloud of
+// steady density keeps one scale from scan to scan) and clamped to [1, kMaxSupportScale].
+double supportScale(const PointCloud& keypoints, const FeatureParams& params, const StopFlag* stop) {
+  const std::size_t wanted = params.min_feature_neighbours;
+  if (wanted == 0 || keypoints.size() < wanted) return 1.0;
+  std::vector<int> which;
+  const std::size_t step = std::max<std::size_t>(1, keypoints.size() / kSupportScaleSamples);
+  for (std::size_t i = 0; i < keypoints.size(); i += step) which.push_back(int(i));
+  const double radius = params.feature_radius_factor * params.voxel_size;
+  // Dense clouds hold them within the radius as given (up to where it would round to a step up): a search
+  // of that radius settles it without a wider one.
+  const double rounds_to_one = radius * std::exp2(0.125);
+  if (medianReach(keypoints, which, wanted, rounds_to_one, params.num_threads, stop) <= rounds_to_one)
+    return 1.0;
+  const double needed =
+      medianReach(keypoints, which, wanted, kMaxSupportScale * radius, params.num_threads, stop) / radius;
+  if (!std::isfinite(needed)) return kMaxSupportScale;
+  return std::clamp(std::exp2(std::round(4.0 * std::log2(needed)) / 4.0), 1.0, kMaxSupportScale);
+}
+
+}  // namespace
+
 bool resolutionNeeded(const FeatureParams& params) { return params.gaussian_sigma_resolutions > 0.0; }
 
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params) {
   return (params.voxel_size == 0.0 || cloud.params.voxel_size == params.voxel_size) &&
          cloud.params.normal_radius_factor == params.normal_radius_factor &&
          cloud.params.feature_radius_factor == params.feature_radius_factor &&
+         cloud.params.min_feature_neighbours == params.min_feature_neighbours &&
          cloud.params.support_voxel_factor == params.support_voxel_factor;
 }
 
@@ -136,7 +188,7 @@ namespace {
 
 // describeCloud's stages, which throw Cancelled when `stop` ends them.
 DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& given, const std::string& role,
-                              const StopFlag* stop) {
+                              const StopFlag* stop, double support_scale) {
   throwIfInvalid(given);
   const FeatureParams params = withVoxel(given, given.voxel_size == 0.0 ? autoVoxelSize(cloud, stop) : 0.0);
   DescribedCloud out;
@@ -162,10 +214,11 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
   start = Clock::now();
   PointCloud::Ptr voxels = voxelDownsample(*finite, params.voxel_size, params.num_threads, stop);
   out.voxels = voxels->size();
+  out.support_scale = support_scale > 0.0 ? support_scale : supportScale(*voxels, params, stop);
   out.times.downsample_ms = millisecondsSince(start);
 
   start = Clock::now();
-  const double normal_radius = params.normal_radius_factor * params.voxel_size;
+  const double normal_radius = out.support_scale * params.normal_radius_factor * params.voxel_size;
   const NormalCloud::Ptr normals = estimateNormals(voxels, normal_radius, params.num_threads, stop);
   // Points without a normal are left out of the FPFH neighbourhoods too: their pair features are undefined.
   const std::vector<int> with_normal = finiteNormals(*normals);
@@ -191,9 +244,9 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
   out.support_points = surface->size();
 
   start = Clock::now();
-  const FpfhCloud::Ptr descriptors =
-      computeFpfh(voxels, surface, surface_normals, params.feature_radius_factor * params.voxel_size,
-                  params.num_threads, stop);
+  const FpfhCloud::Ptr descriptors = computeFpfh(
+      voxels, surface, surface_normals, out.support_scale * params.feature_radius_factor * params.voxel_size,
+      params.num_threads, stop);
   std::vector<int> usable;
   for (int i = 0; i < static_cast<int>(descriptors->size()); ++i) {
     if (isUsableDescriptor((*descriptors)[i])) usable.push_back(i);
@@ -211,9 +264,9 @@ DescribedCloud describeStages(const PointCloud& cloud, const FeatureParams& give
 }  // namespace
 
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role,
-                             const StopFlag* stop) {
+                             const StopFlag* stop, double support_scale) {
   try {
-    return describeStages(cloud, params, role, stop);
+    return describeStages(cloud, params, role, stop, support_scale);
   } catch (const Cancelled& e) {
     throw Cancelled(std::string(e.what()) + " (describing the " + role + " cloud)");
   }
@@ -225,6 +278,11 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   if (!describedWith(s, params) || !describedWith(t, params) || s.params.voxel_size != t.params.voxel_size) {
     throw std::invalid_argument(
         "the clouds were described with other voxel_size, radius or support factors than these");
+  }
+  if (s.support_scale != t.support_scale) {
+    throw std::invalid_argument("the clouds were described at different support scales (" +
+                                std::to_string(s.support_scale) + ", " + std::to_string(t.support_scale) +
+                                "): describe the sparser one's scale on both");
   }
   FeatureCorrespondences out;
   FrontEndStats& stats = out.stats;
@@ -238,6 +296,7 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   stats.target_no_feature = t.no_feature;
   stats.resolution = 0.5 * (s.resolution + t.resolution);
   stats.voxel_size = t.params.voxel_size;
+  stats.support_scale = t.support_scale;
   stats.times = s.times;
   stats.times += t.times;
 
@@ -277,6 +336,26 @@ FeatureCorrespondences matchDescribedClouds(const DescribedCloud& s, const Descr
   return out;
 }
 
+namespace {
+
+// `described` (of `cloud`) described again at `scale`, its first description's time counted too.
+void describeAgainAt(DescribedCloud& described, const PointCloud& cloud, double scale,
+                     const std::string& role, const StopFlag* stop) {
+  const StageTimes first = described.times;
+  described = describeCloud(cloud, described.params, role, stop, scale);
+  described.times += first;
+}
+
+// The sparser cloud's support scale on both (a pair's descriptors must be comparable).
+void atCommonScale(DescribedCloud& s, const PointCloud& source, DescribedCloud& t, const PointCloud& target,
+                   const StopFlag* stop) {
+  const double common = std::max(s.support_scale, t.support_scale);
+  if (s.support_scale != common) describeAgainAt(s, source, common, "source", stop);
+  if (t.support_scale != common) describeAgainAt(t, target, common, "target", stop);
+}
+
+}  // namespace
+
 FeatureCorrespondences computeCorrespondences(const PointCloud& source, const PointCloud& target,
                                               const FeatureParams& given, const StopFlag* stop) {
   // One leaf for both clouds (their descriptors must be comparable): the coarser, so that neither holds
@@ -285,8 +364,10 @@ FeatureCorrespondences computeCorrespondences(const PointCloud& source, const Po
       given.voxel_size == 0.0
           ? withVoxel(given, std::max(autoVoxelSize(source, stop), autoVoxelSize(target, stop)))
           : given;
-  const DescribedCloud described_source = describeCloud(source, params, "source", stop);
-  return matchDescribedClouds(described_source, describeCloud(target, params, "target", stop), params, stop);
+  DescribedCloud s = describeCloud(source, params, "source", stop);
+  DescribedCloud t = describeCloud(target, params, "target", stop);
+  atCommonScale(s, source, t, target, stop);
+  return matchDescribedClouds(s, t, params, stop);
 }
 
 MacParams inCloudUnits(const MacParams& mac_params, const FeatureParams& feature_params,
@@ -352,11 +433,12 @@ CloudRegistrationResult registerClouds(const PointCloud& source, const PointClou
 CloudRegistrationResult registerCloudToDescribed(const PointCloud& source, const DescribedCloud& target,
                                                  const FeatureParams& feature_params,
                                                  const MacParams& mac_params, const StopFlag* stop) {
-  // An auto voxel size follows the target, described before the source was known.
+  // An auto voxel size and the support scale follow the target, described before the source was known.
   const FeatureParams params = withVoxel(feature_params, target.params.voxel_size);
   return registerWith(
       [&] {
-        return matchDescribedClouds(describeCloud(source, params, "source", stop), target, params, stop);
+        return matchDescribedClouds(describeCloud(source, params, "source", stop, target.support_scale),
+                                    target, params, stop);
       },
       params, mac_params, stop);
 }
@@ -397,8 +479,13 @@ std::vector<CloudRegistrationResult> registerCandidates(const PointCloud& source
         [&]() -> FeatureCorrespondences {
           if (source_error) std::rethrow_exception(source_error);
           if (!targets[k]) throw std::invalid_argument("candidate " + std::to_string(k) + " has no cloud");
-          return matchDescribedClouds(described, describeCloud(*targets[k], params, "target", stop), params,
-                                      stop);
+          DescribedCloud target = describeCloud(*targets[k], params, "target", stop);
+          if (target.support_scale == described.support_scale)
+            return matchDescribedClouds(described, target, params, stop);
+          // A sparser candidate than the source (or a denser one) is matched as a pair would be.
+          DescribedCloud source_at = described;
+          atCommonScale(source_at, source, target, *targets[k], stop);
+          return matchDescribedClouds(source_at, target, params, stop);
         },
         params, mac_params, stop));
     described.times = StageTimes();  // described once: counted in the first result

@@ -65,6 +65,7 @@ DescribedCloud placeCloud(const DescribedCloud& map, const std::vector<int>& ind
                           const Eigen::Vector3f& offset) {
   DescribedCloud place;
   place.params = map.params;
+  place.support_scale = map.support_scale;
   place.keypoints.reset(new PointCloud);
   place.normals.reset(new pcl::PointCloud<pcl::Normal>);
   place.descriptors.reset(new pcl::PointCloud<pcl::FPFHSignature33>);
@@ -448,7 +449,7 @@ RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query
 
   DescribedCloud described;
   try {
-    described = describeCloud(query, features, "query", stop);
+    described = describeCloud(query, features, "query", stop, map.cloud.support_scale);
   } catch (const Cancelled& e) {
     return finish(RelocalizationOutcome::kCancelled, e.what());
   } catch (const std::exception& e) {

@@ -14,8 +14,13 @@ struct FeatureParams {
   // kAutoVoxelKeypoints keypoints (autoVoxelSize), the coarser of the two clouds' when a pair is
   // registered, the target's when the target was described before.
   double voxel_size = 0.05;
-  double normal_radius_factor = 2.0;       // normal estimation radius = factor x voxel_size, > 0
-  double feature_radius_factor = 5.0;      // FPFH radius = factor x voxel_size, > normal_radius_factor
+  double normal_radius_factor = 2.0;   // normal estimation radius = factor x voxel_size, > 0
+  double feature_radius_factor = 5.0;  // FPFH radius = factor x voxel_size, > normal_radius_factor
+  // [keypoints], 0 = off: the fewest keypoints the median keypoint's FPFH sphere holds. Where a cloud is
+  // sparser (16/32-beam lidar, downsampled keyframes), both radii above grow by the same scale, in steps
+  // of a quarter octave, up to kMaxSupportScale; the two clouds of a pair are described at the larger of
+  // their scales, so that their descriptors stay comparable.
+  std::size_t min_feature_neighbours = 0;
   std::size_t max_correspondences = 5000;  // [count], >= 3: keep the best-matching ones (feature distance)
   bool mutual_filter = false;              // keep only mutual nearest neighbours in feature space
   double ratio_test = 0.0;  // Lowe's ratio in (0, 1), 0 = off: nearest / second nearest distance
@@ -43,6 +48,10 @@ struct FeatureParams {
 // leaves in a 3DMatch fragment (4 000-5 500), enough for FPFH to tell surfaces apart, few enough for the
 // matching and the graph to stay in tens of milliseconds.
 constexpr std::size_t kAutoVoxelKeypoints = 5000;
+
+// The most the radii grow for features.min_feature_neighbours: FPFH's cost grows with the square of the
+// points in its sphere, and a cloud that needs a wider support than this is scattered, not sparse.
+constexpr double kMaxSupportScale = 4.0;
 
 // The metric distances of the core that are derived from the voxel size when given as 0 (auto), in
 // voxel sizes: the indoor preset's measured values at its 5 cm leaf (d_cmp 5 cm, tau 10 cm). A right

@@ -26,8 +26,9 @@ struct FrontEndStats {
   // [m] mean nearest-neighbour distance of the given clouds, averaged over both; 0 when not estimated
   // (see resolutionNeeded).
   double resolution = 0.0;
-  double voxel_size = 0.0;  // [m] the leaf both clouds were described with (features.voxel_size resolved)
-  StageTimes times;         // the front end's stages, source and target together
+  double voxel_size = 0.0;     // [m] the leaf both clouds were described with (features.voxel_size resolved)
+  double support_scale = 1.0;  // the factor both clouds' radii were widened by (min_feature_neighbours)
+  StageTimes times;            // the front end's stages, source and target together
 };
 
 struct FeatureCorrespondences {
@@ -54,7 +55,10 @@ struct DescribedCloud {
   // of this struct: matching a cached target does not index it again. Used only while it indexes these
   // very descriptors (a struct whose descriptors were replaced is indexed afresh at each match).
   std::shared_ptr<const DescriptorIndex> descriptor_index;
-  FeatureParams params;        // what it was described with; matching refuses other parameters
+  FeatureParams params;  // what it was described with; matching refuses other parameters
+  // The factor its radii were widened by (features.min_feature_neighbours; 1 = as given). Two clouds are
+  // matched only at the same scale.
+  double support_scale = 1.0;
   std::size_t points = 0;      // given
   std::size_t dropped = 0;     // NaN/Inf points removed
   std::size_t voxels = 0;      // keypoints after the voxel grid
@@ -74,17 +78,19 @@ bool resolutionNeeded(const FeatureParams& params);
 // apart (the voxel grid and FPFH would see a staircase); `role` ("source", "target") names the cloud in
 // that message. All of it is checked before any kd-tree or voxel grid is built. Throws Cancelled when `stop`
 // is raised before it is done: it is read between the stages and inside their loops over points, so that a
-// shutdown does not wait for the description of a large cloud.
+// shutdown does not wait for the description of a large cloud. `support_scale` > 0 describes it with radii
+// widened by that factor (to match a cloud described at it); 0 = the scale its own density needs
+// (features.min_feature_neighbours).
 DescribedCloud describeCloud(const PointCloud& cloud, const FeatureParams& params, const std::string& role,
-                             const StopFlag* stop = nullptr);
+                             const StopFlag* stop = nullptr, double support_scale = 0.0);
 
 // Whether `cloud` was described with the voxel size, radii and support factor of `params` (what its
 // descriptors depend on); with voxel_size auto (0), any voxel size.
 bool describedWith(const DescribedCloud& cloud, const FeatureParams& params);
 
 // Matches two described clouds. Throws std::invalid_argument when they were described with different
-// voxel sizes, radii or support factors, or with other ones than `params` holds; Cancelled when `stop` is
-// raised before it is done.
+// voxel sizes, radii, support scales or support factors, or with other ones than `params` holds; Cancelled
+// when `stop` is raised before it is done.
 FeatureCorrespondences matchDescribedClouds(const DescribedCloud& source, const DescribedCloud& target,
                                             const FeatureParams& params, const StopFlag* stop = nullptr);
 
