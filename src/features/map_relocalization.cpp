@@ -32,10 +32,16 @@ constexpr double kSamePoseFactor = 5.0;
 // Places ranked and reported beyond those registered: what a caller sees of the runners-up.
 constexpr std::size_t kReportedPlaces = 10;
 
-// Query descriptors that vote (every k-th): the votes' search scans the whole map's descriptors, so its cost
-// is bounded by their number. On NCLT windows of ~15 000 keypoints, 3000 voters localized 115 windows
-// against all voters' 116, at 0.62 s a query instead of 1.59 (doc/decisions/map-relocalization.md).
+// Query descriptors that vote (every k-th): the votes' search is the largest part of a query on a large map,
+// so its cost is bounded by their number. On NCLT windows of ~15 000 keypoints, 3000 voters localized 115
+// windows against all voters' 116, at 0.62 s a query instead of 1.59 (doc/decisions/map-relocalization.md).
 constexpr std::size_t kVoters = 3000;
+
+// A vote goes to a map descriptor within (1 + this) of the nearest one's distance, found in a kd-tree
+// instead of by scanning every map descriptor: a vote only shortlists places, which the rigidity of the
+// votes and the registration then rank. On a map of 1.7 M keypoints the search took a third of the exact
+// scan's time, and the same windows were localized (doc/decisions/map-relocalization.md).
+constexpr double kVoteEpsilon = 1.0;
 
 // Places the votes shortlist for the rigidity score: the votes alone put the true place anywhere in the
 // first ten; scoring twenty costs little beside the votes' search.
@@ -265,7 +271,7 @@ std::vector<Vote> castVotes(const DescribedCloud& query, const DescribedMap& map
     votes.push_back({(*query.keypoints)[i].getVector3fMap(), Eigen::Vector3f::Zero()});
   }
   const std::vector<NearestDescriptors> nearest =
-      nearestDescriptorsBruteForce(voters, *map.cloud.descriptor_index, threads, nullptr, stop);
+      nearestDescriptorsKdTree(voters, nullptr, *map.cloud.descriptor_index, 1, kVoteEpsilon, threads, stop);
   cell_votes.assign(map.cell_keypoints.size(), 0.0);
   for (std::size_t v = 0; v < nearest.size(); ++v) {
     const auto& p = (*map.cloud.keypoints)[nearest[v].nearest];
@@ -356,7 +362,7 @@ std::pair<RelocalizationOutcome, std::string> decide(RelocalizationResult& out, 
 std::size_t DescribedMap::bytes() const {
   const std::size_t n = cloud.keypoints ? cloud.keypoints->size() : 0;
   std::size_t grid = cell_keypoints.size() * sizeof(std::vector<int>) + n * sizeof(int);
-  // The descriptors once in the cloud and once packed for the exact search (or in the kd-tree's copy).
+  // The descriptors once in the cloud and once in the votes' kd-tree (FLANN's copy; its nodes not counted).
   return n * (sizeof(pcl::PointXYZ) + sizeof(pcl::Normal) + 2 * sizeof(pcl::FPFHSignature33)) + grid;
 }
 
@@ -380,8 +386,8 @@ DescribedMap describeMap(const PointCloud& map, const FeatureParams& features,
   out.cloud = describeCloud(local, features, "map", stop);
   out.cloud.points = map.size();
   throwIfStopped(stop, "indexing the map");
-  // The exact search's packing, built now rather than by the first query.
-  out.cloud.descriptor_index->packed();
+  // The votes' kd-tree, built now rather than by the first query.
+  out.cloud.descriptor_index->tree();
   out.origin += map_origin;
 
   out.cell_size = resolvedSpacing(params, features.voxel_size);
