@@ -399,11 +399,12 @@ PYBIND11_MODULE(_mac, m) {
   MAC_FIELD(front_end, FrontEndStats, truncated);
   MAC_FIELD(front_end, FrontEndStats, resolution);
   MAC_FIELD(front_end, FrontEndStats, voxel_size);
+  MAC_FIELD(front_end, FrontEndStats, support_scale);
   front_end.def_readonly("times", &FrontEndStats::times);
   front_end.attr("_fields") =
       py::make_tuple("source_points", "target_points", "source_dropped", "target_dropped", "source_keypoints",
                      "target_keypoints", "source_no_feature", "target_no_feature", "rejected_mutual",
-                     "rejected_ratio", "truncated", "resolution", "voxel_size");
+                     "rejected_ratio", "truncated", "resolution", "voxel_size", "support_scale");
 
   py::class_<Result> result(m, "Result",
                             "One registration's outcome (MacResult, and the front end's for clouds).");

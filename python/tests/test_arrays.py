@@ -106,6 +106,17 @@ def test_non_finite_cloud_points_are_dropped_and_counted():
     assert result.front_end.source_points == len(source)
 
 
+def test_sparse_keyframes_are_described_with_widened_radii():
+    # NCLT keyframes (32-beam, thinned to 2-5k points): the outdoor preset's radii grow for them.
+    query = mr.load_cloud(repo_path("data/nclt_campus/revisit_query.pcd")).points
+    earlier = mr.load_cloud(repo_path("data/nclt_campus/revisit_earlier.pcd")).points
+    outdoor = mr.Config(repo_path("config/outdoor_lidar.yaml"))
+    widened = mr.register_clouds(query, earlier, outdoor).front_end.support_scale
+    assert 1.0 < widened <= 4.0
+    as_given = mr.Config(repo_path("config/outdoor_lidar.yaml"), {"features.min_feature_neighbours": 0})
+    assert mr.register_clouds(query, earlier, as_given).front_end.support_scale == 1.0
+
+
 def test_empty_and_unusable_input():
     # Too few correspondences is a result, as registerCorrespondences returns it (mac_register exits 1).
     for count in (0, 2):
