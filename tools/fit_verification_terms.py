@@ -7,7 +7,9 @@ usage: /usr/bin/python3 tools/fit_verification_terms.py GROUP=CSV... [--cost 10]
 
 Each CSV is a `mac_benchmark verify ... --csv` table; GROUP names its cases' group, or is `scene` to group
 3DMatch cases by their scene (the first word of the case name). Every registered case (success or
-unverified) is a row, labelled by the table's `correct` column. The other evidence terms stay as they are
+unverified) is a row, right where the table's `correct` column says so and the case has an answer (a
+negative, `answerable` 0, is wrong whatever pose it ends at: its correspondences hold none, so a fine
+alignment that lands at the right pose from them is luck). The other evidence terms stay as they are
 (their sum is read from the `evidence` column); the three fitted ones are recomputed for every candidate
 on a grid, and a case counts as accepted where the total log-odds is >= 0 (verification.min_confidence
 0.5). The candidate chosen minimises `cost` x wrong accepted - right accepted: first on all groups but one,
@@ -78,7 +80,7 @@ def main():
     parser.add_argument("--cost", type=float, default=5.0, help="right poses one wrong success is worth")
     args = parser.parse_args()
     rows = read_cases(args.tables)
-    right = np.array([r["correct"] == "1" for r in rows])
+    right = np.array([r["correct"] == "1" and r.get("answerable") != "0" for r in rows])
     base = np.array([base_log_odds(r) for r in rows])
     planarity = np.array(
         [max(number(r, "inlier_planarity"), 1e-9) / max(number(r, "scene_planarity"), 1e-9) for r in rows]
