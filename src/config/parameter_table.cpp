@@ -162,7 +162,9 @@ std::vector<Parameter> makeTable() {
            Range::above(0).orAuto("10 x features.voxel_size"),
            "spacing of the map's candidate places (a grid in the map's x-y plane)"),
       count("relocalization.max_candidates", MAC_FIELD(relocalization.max_candidates), "places",
-            Range::closed(1, 20), "best-ranked places MAC and the verification run on"),
+            Range::closed(1, 20),
+            "best-ranked places MAC and the verification run on; beyond 3 a location needs the odds of "
+            "verification.min_confidence times places / 3"),
       real("relocalization.time_limit", MAC_FIELD(relocalization.time_limit), "s", Range::above(0),
            "wall time of a query after its description; no further place starts beyond it"),
       [] {

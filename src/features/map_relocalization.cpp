@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -31,6 +32,12 @@ constexpr double kSamePoseFactor = 5.0;
 
 // Places ranked and reported beyond those registered: what a caller sees of the runners-up.
 constexpr std::size_t kReportedPlaces = 10;
+
+// Places registered a query at which the verification's min_confidence was measured as the bar for a
+// location: the preset's three, with no wrong location in any NCLT run. Each further place registered is
+// another chance for a look-alike to verify (at ten places a single scan was placed 98 m off at confidence
+// 0.58), so beyond them the odds a location needs grow with the places registered.
+constexpr std::size_t kCalibratedPlaces = 3;
 
 // Query descriptors that vote (every k-th): the votes' search is the largest part of a query on a large map,
 // so its cost is bounded by their number. On NCLT windows of ~15 000 keypoints, 3000 voters localized 115
@@ -313,12 +320,22 @@ PlaceCandidate placeCandidate(const DescribedMap& map, const RankedPlace& place,
 // confirmed a pose more than kSamePoseFactor tau (RMS over the query's keypoints) from it. Sets chosen,
 // T_map_query, confidence and each candidate's `unconstrained`; returns the outcome and its message.
 std::pair<RelocalizationOutcome, std::string> decide(RelocalizationResult& out, const PointCloud& query,
-                                                     double tau) {
+                                                     double tau, double min_confidence) {
+  const std::size_t registered = std::size_t(std::count_if(
+      out.candidates.begin(), out.candidates.end(), [](const PlaceCandidate& c) { return c.registered; }));
+  const double bar = locationConfidenceBar(min_confidence, registered);
   std::vector<int> confirmed;
   for (int k = 0; k < int(out.candidates.size()); ++k) {
     PlaceCandidate& c = out.candidates[k];
     if (!c.registered || !c.registration.registration.success) continue;
     c.unconstrained = unconstrainedReason(c.registration.registration, tau, out.query_radius);
+    if (c.unconstrained.empty() && c.registration.registration.confidence < bar) {
+      std::ostringstream text;
+      text << std::fixed << std::setprecision(2) << "its confidence "
+           << c.registration.registration.confidence << " is below the " << bar << " that " << registered
+           << " places registered call for";
+      c.unconstrained = text.str();
+    }
     if (c.unconstrained.empty()) confirmed.push_back(k);
   }
   const auto confidence = [&](int k) { return out.candidates[k].registration.registration.confidence; };
@@ -358,6 +375,13 @@ std::pair<RelocalizationOutcome, std::string> decide(RelocalizationResult& out, 
 }
 
 }  // namespace
+
+double locationConfidenceBar(double min_confidence, std::size_t places_registered) {
+  if (places_registered <= kCalibratedPlaces || !(min_confidence > 0.0) || !(min_confidence < 1.0))
+    return min_confidence;
+  const double odds = min_confidence / (1.0 - min_confidence) * double(places_registered) / kCalibratedPlaces;
+  return odds / (1.0 + odds);
+}
 
 std::size_t DescribedMap::bytes() const {
   const std::size_t n = cloud.keypoints ? cloud.keypoints->size() : 0;
@@ -497,7 +521,7 @@ RelocalizationResult relocalize(const DescribedMap& map, const PointCloud& query
   out.registration_ms = millisecondsSince(registration_start);
   if (stopRequested(stop))
     return finish(RelocalizationOutcome::kCancelled, "cancelled registering the places");
-  const auto [outcome, message] = decide(out, *described.keypoints, tau);
+  const auto [outcome, message] = decide(out, *described.keypoints, tau, mac.verification.min_confidence);
   return finish(outcome, message);
 }
 

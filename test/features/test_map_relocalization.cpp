@@ -112,6 +112,26 @@ TEST(MapRelocalization, FindsTheScanInTheMap) {
     EXPECT_LE(r.candidates[k].score, r.candidates[k - 1].score);
 }
 
+TEST(MapRelocalization, MorePlacesRegisteredAskMoreConfidenceOfALocation) {
+  // Up to the three places the verification was measured at, its own bar; beyond, odds x places / 3.
+  EXPECT_DOUBLE_EQ(locationConfidenceBar(0.5, 1), 0.5);
+  EXPECT_DOUBLE_EQ(locationConfidenceBar(0.5, 3), 0.5);
+  EXPECT_NEAR(locationConfidenceBar(0.5, 10), 10.0 / 13.0, 1e-12);
+  EXPECT_NEAR(locationConfidenceBar(0.8, 6), 8.0 / 9.0, 1e-12);
+  EXPECT_DOUBLE_EQ(locationConfidenceBar(0.0, 20), 0.0);  // no bar stays no bar
+  // The scan is still found with twenty places registered: the right place's confidence clears the bar.
+  const Fixture& f = fixture();
+  RelocalizationParams many = f.config.relocalization;
+  many.max_candidates = 20;
+  many.time_limit = 60.0;
+  const RelocalizationResult r = relocalize(f.map, *f.source, f.config.features, f.config.mac, many);
+  EXPECT_TRUE(r.success) << toString(r.outcome) << ": " << r.message;
+  const auto registered = std::count_if(r.candidates.begin(), r.candidates.end(),
+                                        [](const PlaceCandidate& c) { return c.registered; });
+  EXPECT_GT(registered, 3);
+  EXPECT_GE(r.confidence, locationConfidenceBar(f.config.mac.verification.min_confidence, registered));
+}
+
 TEST(MapRelocalization, AMirroredScanIsNotLocalized) {
   // A place that exists nowhere: the scan mirrored front to back, which no rigid motion lays onto the map.
   const Fixture& f = fixture();

@@ -56,7 +56,8 @@ struct PlaceCandidate {
   std::size_t keypoints = 0;  // map keypoints registered against (the place and its margin)
   bool registered = false;    // MAC and the verification ran on it (within max_candidates and time)
   // Why its verified pose does not count as a location, when it does not: the fine alignment on the map
-  // did not run or leaves the pose unconstrained beyond the inlier threshold in some direction.
+  // did not run or leaves the pose unconstrained beyond the inlier threshold in some direction, or its
+  // confidence is below locationConfidenceBar for the places registered.
   std::string unconstrained;
   CloudRegistrationResult registration;  // when registered: query (source) against the place (target)
   Eigen::Isometry3d T_map_query = Eigen::Isometry3d::Identity();  // when registered, in the map frame
@@ -94,6 +95,12 @@ struct SearchArea {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // [m]
   double radius = 0.0;                               // [m]
 };
+
+// The confidence a verified place needs to count as the location when `places_registered` places were
+// registered for one query: verification.min_confidence up to three places (where it was measured), and
+// beyond them the confidence whose odds are min_confidence's times places_registered / 3: each place
+// registered is one more chance for a look-alike to verify.
+double locationConfidenceBar(double min_confidence, std::size_t places_registered);
 
 // Localizes `query` (its own frame, e.g. the sensor's) in `map`, in `area` when given. `features` must
 // describe as the map was described (voxel size, radii); its matching parameters apply to each place.
