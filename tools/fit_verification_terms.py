@@ -25,6 +25,9 @@ import sys
 import numpy as np
 
 FITTED = ("inlier_planarity", "fine_alignment_move", "fine_alignment_converged")
+# As src/core/verification.cpp: no move term where the fine pose keeps this many of the correspondences'
+# inliers per inlier at their own pose (kMoveFollowed).
+MOVE_FOLLOWED = 0.8
 
 # The candidates: (relative planarity free from, slope per e-fold below it, move free up to [tau], slope per
 # tau beyond it, log-odds when the fine alignment did not settle). Relative planarity: the inliers' planarity
@@ -87,6 +90,7 @@ def main():
     )
     move = np.array([number(r, "fine_alignment_move") for r in rows])
     settled = np.array([number(r, "fine_alignment_converged") for r in rows])
+    followed = np.array([number(r, "fine_alignment_support") >= MOVE_FOLLOWED for r in rows])
     groups = np.array([r["group"] for r in rows])
 
     def accepted(candidate):
@@ -96,7 +100,7 @@ def main():
         log_odds[measured] -= planarity_slope * np.maximum(
             0.0, np.log(free_planarity / np.maximum(planarity[measured], 1e-9))
         )
-        measured = ~np.isnan(move)
+        measured = ~np.isnan(move) & ~followed
         log_odds[measured] -= move_slope * np.maximum(0.0, move[measured] - free_move)
         log_odds[settled == 0.0] -= unsettled
         return log_odds >= 0.0

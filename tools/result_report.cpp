@@ -77,8 +77,8 @@ void printResultSummary(std::ostream& out, const MacResult& r) {
       << ", graph edges " << c.graph_edges << " (" << c.pruned_weak_edges << " weak pruned), cliques "
       << c.cliques << (r.clique_search_complete ? "" : " (search bounded)") << ", pruning rounds "
       << c.pruning_rounds << ", selected cliques " << c.selected_cliques << ", hypotheses " << c.hypotheses
-      << ", degenerate cliques " << c.degenerate_cliques << ", inliers " << c.inliers
-      << ", refinement iterations " << c.refinement_iterations << "\n";
+      << ", degenerate cliques " << c.degenerate_cliques << ", tilted hypotheses " << c.tilted_hypotheses
+      << ", inliers " << c.inliers << ", refinement iterations " << c.refinement_iterations << "\n";
   out << std::fixed << std::setprecision(2) << "time [ms]: graph " << t.graph_ms << ", second order "
       << t.second_order_ms << ", clique search " << t.clique_search_ms << ", selection " << t.selection_ms
       << ", hypotheses " << t.hypotheses_ms << ", evaluation " << t.evaluation_ms << ", refinement "

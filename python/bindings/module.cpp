@@ -297,12 +297,13 @@ PYBIND11_MODULE(_mac, m) {
   MAC_FIELD(counters, RegistrationCounters, selected_cliques);
   MAC_FIELD(counters, RegistrationCounters, hypotheses);
   MAC_FIELD(counters, RegistrationCounters, degenerate_cliques);
+  MAC_FIELD(counters, RegistrationCounters, tilted_hypotheses);
   MAC_FIELD(counters, RegistrationCounters, inliers);
   MAC_FIELD(counters, RegistrationCounters, refinement_iterations);
   counters.attr("_fields") = py::make_tuple(
       "correspondences", "dropped_non_finite", "graph_nodes", "first_order_edges", "graph_edges",
       "pruned_weak_edges", "cliques", "degeneracy", "thinned_nodes", "pruning_rounds", "selected_cliques",
-      "hypotheses", "degenerate_cliques", "inliers", "refinement_iterations");
+      "hypotheses", "degenerate_cliques", "tilted_hypotheses", "inliers", "refinement_iterations");
 
   py::class_<StageTimes> times(m, "StageTimes", "Wall-clock milliseconds per stage, in the order they run.");
   MAC_FIELD(times, StageTimes, resolution_ms);
@@ -339,6 +340,7 @@ PYBIND11_MODULE(_mac, m) {
   MAC_FIELD(signals, VerificationSignals, scene_planarity);
   MAC_FIELD(signals, VerificationSignals, fine_alignment_move);
   MAC_FIELD(signals, VerificationSignals, fine_alignment_converged);
+  MAC_FIELD(signals, VerificationSignals, fine_alignment_support);
   MAC_FIELD(signals, VerificationSignals, aligned_overlap);
   MAC_FIELD(signals, VerificationSignals, seen_on_surface);
   MAC_FIELD(signals, VerificationSignals, surface_agreement);
@@ -346,8 +348,8 @@ PYBIND11_MODULE(_mac, m) {
   signals.attr("_fields") =
       py::make_tuple("rival_ratio", "rival_rotation_deg", "rival_displacement", "chance_inliers",
                      "chance_significance", "inlier_planarity", "inlier_linearity", "scene_planarity",
-                     "fine_alignment_move", "fine_alignment_converged", "aligned_overlap", "seen_on_surface",
-                     "surface_agreement", "free_space_violation");
+                     "fine_alignment_move", "fine_alignment_converged", "fine_alignment_support",
+                     "aligned_overlap", "seen_on_surface", "surface_agreement", "free_space_violation");
 
   py::class_<EvidenceTerm> evidence(m, "EvidenceTerm");
   MAC_FIELD(evidence, EvidenceTerm, signal);

@@ -116,6 +116,8 @@ std::vector<Parameter> makeTable() {
       real("evaluation.inlier_threshold", MAC_FIELD(mac.evaluation.inlier_threshold),
            "tau: residual below which a correspondence is an inlier; auto = 2 x features.voxel_size"),
       count("evaluation.min_inliers", MAC_FIELD(mac.evaluation.min_inliers), "fewest inliers for a success"),
+      real("evaluation.max_tilt_deg", MAC_FIELD(mac.evaluation.max_tilt_deg),
+           "largest turn of the source's z axis from the target's a pose may have; 180 = no prior"),
       boolean("refinement.enabled", MAC_FIELD(mac.refinement.enabled), "reweighted-SVD refinement"),
       integer("refinement.max_iterations", MAC_FIELD(mac.refinement.max_iterations),
               "reweighted-SVD rounds at most"),

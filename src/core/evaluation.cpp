@@ -4,8 +4,13 @@
 #include <cmath>
 
 #include "kernels/kernel_sets.hpp"
+#include "mac_registration/core/pose_error.hpp"
 
 namespace mac_registration {
+
+bool withinTilt(const Eigen::Isometry3d& T, const EvaluationParams& params) {
+  return params.max_tilt_deg >= 180.0 || tiltDeg(T) <= params.max_tilt_deg;
+}
 
 HypothesisEvaluator::HypothesisEvaluator(const CorrespondenceSet& c, const EvaluationParams& params)
     : params_(params) {

@@ -55,6 +55,9 @@ class HypothesisEvaluator {
   std::vector<float> sx_, sy_, sz_, tx_, ty_, tz_;
 };
 
+// Whether T keeps the source's z axis within params.max_tilt_deg of the target's (always, at 180).
+bool withinTilt(const Eigen::Isometry3d& T, const EvaluationParams& params);
+
 // Index of the highest-scoring hypothesis, the earliest among equals; -1 when there are none.
 // Scores are computed in parallel; the choice does not depend on the thread count.
 int bestHypothesis(const std::vector<HypothesisScore>& scores);

@@ -137,13 +137,17 @@ struct BestHypothesis {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
   HypothesisScore score;
   bool found = false;
-  std::vector<ScoredHypothesis> scored;  // every non-degenerate hypothesis, for the verification
+  // Every non-degenerate hypothesis, for the verification: those beyond the tilt prior too, since a
+  // correspondence set that also supports impossible poses as strongly is no evidence for its answer.
+  std::vector<ScoredHypothesis> scored;
 };
 
-// Stops early, with a partial result the caller drops, when `stop` is raised.
+// Stops early, with a partial result the caller drops, when `stop` is raised. A hypothesis beyond the
+// tilt prior is never chosen: the prior says no such pose is possible.
 BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const CorrespondenceSet& c,
                              const std::vector<double>& weights, const HypothesisEvaluator& evaluator,
-                             int threads, const StopFlag* stop, MacResult& result) {
+                             const EvaluationParams& params, int threads, const StopFlag* stop,
+                             MacResult& result) {
   auto start = Clock::now();
   const int count = static_cast<int>(cliques.size());
   std::vector<std::optional<Eigen::Isometry3d>> transforms(count);
@@ -159,22 +163,34 @@ BestHypothesis bestOfCliques(const std::vector<SelectedClique>& cliques, const C
   for (int h = 0; h < count; ++h) {
     if (transforms[h] && !stopRequested(stop)) scores[h] = evaluator.score(*transforms[h]);
   }
-  for (int h = 0; h < count; ++h) {
-    if (transforms[h]) {
-      ++result.counters.hypotheses;
-    } else {
-      ++result.counters.degenerate_cliques;
-      scores[h].score = -std::numeric_limits<double>::infinity();  // never chosen over a real hypothesis
-    }
-  }
   BestHypothesis best;
-  const int chosen = bestHypothesis(scores);  // the earliest among equals, whatever the thread count
-  if (chosen >= 0 && transforms[chosen]) best = {*transforms[chosen], scores[chosen], true, {}};
   for (int h = 0; h < count; ++h) {
     if (transforms[h]) best.scored.push_back({*transforms[h], scores[h]});
   }
+  for (int h = 0; h < count; ++h) {
+    if (!transforms[h]) {
+      ++result.counters.degenerate_cliques;
+    } else if (!withinTilt(*transforms[h], params)) {
+      ++result.counters.tilted_hypotheses;
+    } else {
+      ++result.counters.hypotheses;
+      continue;
+    }
+    scores[h].score = -std::numeric_limits<double>::infinity();  // never chosen over a possible hypothesis
+  }
+  const int chosen = bestHypothesis(scores);  // the earliest among equals, whatever the thread count
+  if (chosen >= 0 && transforms[chosen] && std::isfinite(scores[chosen].score))
+    best = {*transforms[chosen], scores[chosen], true, std::move(best.scored)};
   result.times.evaluation_ms = millisecondsSince(start);
   return best;
+}
+
+std::string noHypothesisMessage(bool found, const RegistrationCounters& counters) {
+  if (found) return "no hypothesis has an inlier within evaluation.inlier_threshold";
+  if (counters.tilted_hypotheses == 0)
+    return "every selected clique is degenerate (coincident or collinear points)";
+  return "no hypothesis within evaluation.max_tilt_deg: " + std::to_string(counters.tilted_hypotheses) +
+         " tilt the source beyond it, " + std::to_string(counters.degenerate_cliques) + " are degenerate";
 }
 
 // Stage 0: parameters and input. False, with the result failed, when there is nothing to register.
@@ -272,6 +288,11 @@ void refineAndAccept(const BestHypothesis& best, const SanitizedCorrespondences&
 
   result.T_target_source = refined.T_target_source;
   result.score = refined.score.score;
+  if (!withinTilt(refined.T_target_source, params.evaluation)) {
+    fail(result, RegistrationStatus::kNoValidHypothesis,
+         "the refinement tilted the best hypothesis beyond evaluation.max_tilt_deg");
+    return;
+  }
   for (int i : evaluator.inliers(refined.T_target_source))
     result.inlier_indices.push_back(sane.original_index[i]);
   result.counters.inliers = result.inlier_indices.size();
@@ -329,12 +350,11 @@ void runPipeline(const CorrespondenceSet& input, const MacParams& params, const 
                                           ? principalEigenvector(graph, 50, stop)
                                           : std::vector<double>{};
   const HypothesisEvaluator evaluator(c, params.evaluation);
-  const BestHypothesis best = bestOfCliques(cliques, c, weights, evaluator, threads, stop, result);
+  const BestHypothesis best =
+      bestOfCliques(cliques, c, weights, evaluator, params.evaluation, threads, stop, result);
   if (stopped(stop, result, "the hypotheses")) return;
   if (!best.found || !(best.score.score > 0.0)) {
-    fail(result, RegistrationStatus::kNoValidHypothesis,
-         best.found ? "no hypothesis has an inlier within evaluation.inlier_threshold"
-                    : "every selected clique is degenerate (coincident or collinear points)");
+    fail(result, RegistrationStatus::kNoValidHypothesis, noHypothesisMessage(best.found, result.counters));
     return;
   }
   refineAndAccept(best, sane, evaluator, params, stop, result);

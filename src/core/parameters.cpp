@@ -149,6 +149,7 @@ std::vector<MacParameterRange> makeRanges() {
       MAC_RANGE("evaluation.inlier_threshold", evaluation.inlier_threshold, "m",
                 Range::above(0).orAuto(auto_distance)),
       MAC_RANGE("evaluation.min_inliers", evaluation.min_inliers, "correspondences", Range::atLeast(3)),
+      MAC_RANGE("evaluation.max_tilt_deg", evaluation.max_tilt_deg, "deg", Range::openClosed(0, 180)),
       MAC_RANGE("refinement.max_iterations", refinement.max_iterations, "rounds", Range::closed(1, 100)),
       MAC_RANGE("verification.min_confidence", verification.min_confidence, "", Range::closed(0, 1)),
       MAC_RANGE("verification.distinct_pose_factor", verification.distinct_pose_factor, "x inlier_threshold",

@@ -14,4 +14,8 @@ double translationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) 
   return (a.translation() - b.translation()).norm();
 }
 
+double tiltDeg(const Eigen::Isometry3d& T_target_source) {
+  return std::acos(std::clamp(T_target_source.linear()(2, 2), -1.0, 1.0)) * 180.0 / M_PI;
+}
+
 }  // namespace mac_registration

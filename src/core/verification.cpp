@@ -87,6 +87,11 @@ double relativePlanarity(const VerificationSignals& s) {
 //   slides into the surfaces' own fit and a wrong basin leads further. Free up to 1.5 tau, then 4 points per
 //   tau.
 constexpr double kMoveFree = 1.5, kMoveSlope = 4.0;
+// - ... unless the correspondences follow the move: where the fine pose keeps at least 80 % as many of
+//   their inliers as the pose they gave, the move polished a coarse pose (sparse keyframes' consensus of
+//   20-40 matches spread over metres) rather than leaving it; the anchor was chosen by the same tool,
+//   doc/decisions/move-followed-by-correspondences.md.
+constexpr double kMoveFollowed = 0.8;
 // - a fine alignment still moving when its steps ran out slides along a surface or out of a wrong basin
 //   (half the wrong successes; 6 % of right poses on 3DMatch): 2 points.
 constexpr double kUnsettled = 2.0;
@@ -381,7 +386,7 @@ std::vector<EvidenceTerm> verificationEvidence(const VerificationSignals& s) {
     add("inlier_planarity", -kPlanaritySlope * std::max(0.0, std::log(kPlanarityFree / flatter)),
         reason.str());
   }
-  if (!std::isnan(s.fine_alignment_move)) {
+  if (!std::isnan(s.fine_alignment_move) && !(s.fine_alignment_support >= kMoveFollowed)) {
     std::ostringstream reason;
     reason << std::fixed << std::setprecision(1) << "the fine alignment on the clouds moved the pose "
            << s.fine_alignment_move << " tau (RMS; a right pose: below " << kMoveFree << ")";
@@ -453,6 +458,7 @@ void takeMeasured(const VerificationSignals& from, VerificationSignals& into) {
   take(from.scene_planarity, into.scene_planarity);
   take(from.fine_alignment_move, into.fine_alignment_move);
   take(from.fine_alignment_converged, into.fine_alignment_converged);
+  take(from.fine_alignment_support, into.fine_alignment_support);
   take(from.aligned_overlap, into.aligned_overlap);
   take(from.seen_on_surface, into.seen_on_surface);
   take(from.surface_agreement, into.surface_agreement);
@@ -475,6 +481,13 @@ void alignFinely(const PoseWitness& witness, double tau, MacResult& result) {
 }
 
 namespace {
+
+// The correspondences' inliers at `to` per inlier at `from`.
+double inlierCountRatio(const HypothesisEvaluator& evaluator, const Eigen::Isometry3d& from,
+                        const Eigen::Isometry3d& to) {
+  const double before = double(evaluator.score(from).inliers);
+  return before > 0.0 ? double(evaluator.score(to).inliers) / before : kNotMeasured;
+}
 
 // Of two judgements by the clouds, each signal at its less favourable value (NaN where neither measured
 // it); the fields a witness does not measure are taken from `a`.
@@ -529,6 +542,9 @@ void verifyRegistration(const CorrespondenceSet& c, const std::vector<ScoredHypo
   // A witness reads no stop flag: it is not heard once a stop came, and a stop during it still wins.
   if (witness != nullptr && params.verification.fine_alignment && !stopRequested(stop))
     alignFinely(*witness, params.evaluation.inlier_threshold, result);
+  if (result.fine_alignment.ran && result.fine_alignment.iterations > 0)
+    result.verification.fine_alignment_support =
+        inlierCountRatio(evaluator, result.T_target_source, result.fine_alignment.T_target_source);
   if (witness != nullptr && !stopRequested(stop)) hearWitness(*witness, result);
   if (stopRequested(stop)) {
     result.success = false;
@@ -541,6 +557,16 @@ void verifyRegistration(const CorrespondenceSet& c, const std::vector<ScoredHypo
   // The estimate, verified or not, is the clouds' fit: the pose the correspondences gave stays beside it.
   if (result.fine_alignment.ran && result.fine_alignment.iterations > 0)
     result.T_target_source = result.fine_alignment.T_target_source;
+  if (result.success && !withinTilt(result.T_target_source, params.evaluation)) {
+    // The prior binds the pose reported too, and the fine alignment may carry a pose across it.
+    std::ostringstream text;
+    text << "the fine alignment tilted the pose " << std::fixed << std::setprecision(1)
+         << tiltDeg(result.T_target_source) << " deg, beyond evaluation.max_tilt_deg ("
+         << params.evaluation.max_tilt_deg << ")";
+    result.success = false;
+    result.status = RegistrationStatus::kUnverified;
+    result.message = text.str();
+  }
   result.times.verification_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }

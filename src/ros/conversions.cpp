@@ -319,6 +319,7 @@ void fillVerification(const MacResult& r, mac_registration::RegistrationResult& 
   msg.fine_alignment_ran = r.fine_alignment.ran;
   msg.fine_alignment_move = s.fine_alignment_move;
   msg.fine_alignment_converged = s.fine_alignment_converged == 1.0;
+  msg.fine_alignment_support = s.fine_alignment_support;
   msg.fine_alignment_fitness = r.fine_alignment.ran ? r.fine_alignment.fitness : kNotMeasured;
   msg.fine_alignment_rmse = r.fine_alignment.ran ? r.fine_alignment.rmse : kNotMeasured;
   for (int k = 0; k < 36; ++k)

@@ -150,6 +150,26 @@ TEST(Evidence, TheFineAlignmentsMoveAndUnsettledStepsSpeakAgainstThePose) {
   EXPECT_LT(confidenceOf(terms), 0.5);
 }
 
+TEST(Evidence, AMoveTheCorrespondencesFollowIsNotAgainstThePose) {
+  // A coarse pose polished far: where the fine pose keeps at least 0.8 as many of the correspondences'
+  // inliers, the move is not held against it; where it keeps half, 4 points per tau beyond 1.5 are.
+  VerificationSignals s;
+  s.rival_ratio = 0.1;
+  s.fine_alignment_move = 4.0;
+  s.fine_alignment_converged = 1.0;
+  const auto has_move_term = [&s] {
+    const std::vector<EvidenceTerm> terms = verificationEvidence(s);
+    return std::any_of(terms.begin(), terms.end(),
+                       [](const EvidenceTerm& t) { return t.signal == "fine_alignment_move"; });
+  };
+  s.fine_alignment_support = 0.5;
+  EXPECT_TRUE(has_move_term());
+  s.fine_alignment_support = 0.8;
+  EXPECT_FALSE(has_move_term());
+  s.fine_alignment_support = 1.2;
+  EXPECT_FALSE(has_move_term());
+}
+
 TEST(Evidence, AConsensusFlatterThanItsSceneIsAgainstThePose) {
   VerificationSignals s;
   s.rival_ratio = 0.1;

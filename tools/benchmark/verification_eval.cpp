@@ -267,11 +267,13 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
          "chance_significance,inlier_planarity,inlier_linearity,scene_planarity,alternatives,alternative_"
          "score_ratio,"
          "alternative_rotation_deg,alternative_re_deg,alternative_te_m,global_re_deg,global_te_m,"
-         "fine_alignment_move,fine_alignment_converged,covariance_translation_m,covariance_rotation_deg,"
+         "fine_alignment_move,fine_alignment_converged,fine_alignment_support,covariance_translation_m,"
+         "covariance_rotation_deg,"
          "fine_alignment_rotation_deg,fine_alignment_fitness,"
          "fine_alignment_rmse,"
          "fine_alignment_iterations,truth_fit_moves_deg,truth_fit_moves_m,truth_fit_to_reported_deg,"
-         "truth_fit_to_reported_m,front_end_ms,core_ms,verification_ms,fine_alignment_ms,evidence,message\n";
+         "truth_fit_to_reported_m,tilt_deg,global_tilt_deg,truth_tilt_deg,front_end_ms,core_ms,verification_"
+         "ms,fine_alignment_ms,evidence,message\n";
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (const VerificationCase& c : cases) {
     const MacResult& r = c.result;
@@ -293,12 +295,15 @@ void writeVerificationCsv(std::ostream& out, const std::vector<VerificationCase>
         << (alternative && c.has_truth ? rotationErrorDeg(a.T_target_source, c.truth) : nan) << ","
         << (alternative && c.has_truth ? translationError(a.T_target_source, c.truth) : nan) << ","
         << c.global_rotation_error_deg << "," << c.global_translation_error << "," << s.fine_alignment_move
-        << "," << s.fine_alignment_converged << ","
+        << "," << s.fine_alignment_converged << "," << s.fine_alignment_support << ","
         << (f.ran ? std::sqrt(f.covariance.block<3, 3>(0, 0).trace()) : nan) << ","
         << (f.ran ? std::sqrt(f.covariance.block<3, 3>(3, 3).trace()) * 180.0 / M_PI : nan) << ","
         << (f.ran ? f.rotation_deg : nan) << "," << (f.ran ? f.fitness : nan) << "," << (f.ran ? f.rmse : nan)
         << "," << f.iterations << "," << c.truth_fit_moves_deg << "," << c.truth_fit_moves_m << ","
-        << c.truth_fit_to_reported_deg << "," << c.truth_fit_to_reported_m << "," << c.front_end_ms << ","
+        << c.truth_fit_to_reported_deg << "," << c.truth_fit_to_reported_m << ","
+        << tiltDeg(r.T_target_source) << ","
+        << tiltDeg(f.ran && f.iterations > 0 ? f.start : r.T_target_source) << ","
+        << (c.has_truth ? tiltDeg(c.truth) : nan) << "," << c.front_end_ms << ","
         << r.times.total_ms - r.times.verification_ms << "," << r.times.verification_ms << ","
         << r.times.fine_alignment_ms << ",\"" << evidenceText(r.evidence) << "\",\"" << message << "\"\n";
   }

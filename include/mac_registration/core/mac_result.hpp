@@ -74,8 +74,9 @@ struct RegistrationCounters {
   std::size_t thinned_nodes = 0;       // left out of the clique search by cliques.max_degeneracy
   int pruning_rounds = 0;              // clique searches repeated on a pruned graph
   std::size_t selected_cliques = 0;    // after node-guided selection and filters
-  std::size_t hypotheses = 0;          // non-degenerate transforms scored
+  std::size_t hypotheses = 0;          // non-degenerate transforms within the tilt prior
   std::size_t degenerate_cliques = 0;  // cliques whose points fix no rotation
+  std::size_t tilted_hypotheses = 0;   // beyond evaluation.max_tilt_deg: never the answer, still rivals
   std::size_t inliers = 0;             // of the final transform
   int refinement_iterations = 0;
 };
@@ -125,6 +126,10 @@ struct VerificationSignals {
   // 1 where the fine alignment settled within its steps, 0 where it was still sliding (along a wall, out
   // of a wrong basin) when they ran out.
   double fine_alignment_converged = kNotMeasured;
+  // The correspondences within tau at the fine alignment's pose per one within tau at the pose they gave:
+  // a coarse pose the fine alignment polished keeps its consensus (about 1, above where the fine pose
+  // explains more); a fit that slid elsewhere loses it.
+  double fine_alignment_support = kNotMeasured;
   // From the clouds (front end only), on the keypoints, at tau = evaluation.inlier_threshold.
   double aligned_overlap = kNotMeasured;  // share of the aligned source within tau of the target
   // Of the aligned source keypoints in directions the target's sensor saw (its viewpoint), the share on

@@ -154,6 +154,11 @@ struct EvaluationParams {
   double inlier_threshold = 0.1;
   // Fewest inliers for the result to count as a success [count], >= 3.
   std::size_t min_inliers = 3;
+  // Largest angle a pose may turn the source's z axis away from the target's [deg], in (0, 180]; 180 =
+  // no prior. A ground robot's frames have z up (REP-103): two of its scans differ by the terrain's slope
+  // and the body's roll and pitch, so a hypothesis that tips the source over is not taken, however many
+  // correspondences it explains (repeated structure and mirror images often give such consensus).
+  double max_tilt_deg = 180.0;
 };
 
 // Stage 7: refinement.
@@ -171,7 +176,7 @@ struct VerificationParams {
   // Fewest confidence for a success, in [0, 1]; below it the result is kUnverified and carries its best
   // transform marked as such. 0 accepts every transform (the signals are still measured). What a value
   // means is measured, not assumed: BENCHMARKS.md lists the right poses kept and the wrong ones accepted
-  // at each value (0.5, with clouds: the whole 3DMatch benchmark of four scenes 88.4 % recall, 6 of 929
+  // at each value (0.5, with clouds: the whole 3DMatch benchmark of four scenes 88.6 % recall, 6 of 931
   // successes wrong and none grossly; none of the verification's 95 negatives accepted).
   double min_confidence = 0.5;
   // With a witness that holds the clouds: align the pose finely on them (FineAlignment) before deciding,
