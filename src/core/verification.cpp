@@ -458,7 +458,6 @@ void takeMeasured(const VerificationSignals& from, VerificationSignals& into) {
   take(from.scene_planarity, into.scene_planarity);
   take(from.fine_alignment_move, into.fine_alignment_move);
   take(from.fine_alignment_converged, into.fine_alignment_converged);
-  take(from.fine_alignment_support, into.fine_alignment_support);
   take(from.aligned_overlap, into.aligned_overlap);
   take(from.seen_on_surface, into.seen_on_surface);
   take(from.surface_agreement, into.surface_agreement);
