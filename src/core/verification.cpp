@@ -481,11 +481,10 @@ void alignFinely(const PoseWitness& witness, double tau, MacResult& result) {
 
 namespace {
 
-// The correspondences' inliers at `to` per inlier at `from`.
-double inlierCountRatio(const HypothesisEvaluator& evaluator, const Eigen::Isometry3d& from,
+// The correspondences' inliers at `to` per inlier at the reported pose (counted by the refinement).
+double inlierCountRatio(const HypothesisEvaluator& evaluator, std::size_t inliers,
                         const Eigen::Isometry3d& to) {
-  const double before = double(evaluator.score(from).inliers);
-  return before > 0.0 ? double(evaluator.score(to).inliers) / before : kNotMeasured;
+  return inliers > 0 ? double(evaluator.score(to).inliers) / double(inliers) : kNotMeasured;
 }
 
 // Of two judgements by the clouds, each signal at its less favourable value (NaN where neither measured
@@ -543,7 +542,7 @@ void verifyRegistration(const CorrespondenceSet& c, const std::vector<ScoredHypo
     alignFinely(*witness, params.evaluation.inlier_threshold, result);
   if (result.fine_alignment.ran && result.fine_alignment.iterations > 0)
     result.verification.fine_alignment_support =
-        inlierCountRatio(evaluator, result.T_target_source, result.fine_alignment.T_target_source);
+        inlierCountRatio(evaluator, result.counters.inliers, result.fine_alignment.T_target_source);
   if (witness != nullptr && !stopRequested(stop)) hearWitness(*witness, result);
   if (stopRequested(stop)) {
     result.success = false;
