@@ -288,11 +288,6 @@ void refineAndAccept(const BestHypothesis& best, const SanitizedCorrespondences&
 
   result.T_target_source = refined.T_target_source;
   result.score = refined.score.score;
-  if (!withinTilt(refined.T_target_source, params.evaluation)) {
-    fail(result, RegistrationStatus::kNoValidHypothesis,
-         "the refinement tilted the best hypothesis beyond evaluation.max_tilt_deg");
-    return;
-  }
   for (int i : evaluator.inliers(refined.T_target_source))
     result.inlier_indices.push_back(sane.original_index[i]);
   result.counters.inliers = result.inlier_indices.size();

@@ -21,7 +21,8 @@ RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const Hypoth
     best.iterations = round + 1;
     evaluator.inlierWeights(best.T_target_source, tau, inliers, weights);
     const auto candidate = estimateRigidTransform(correspondences, inliers, weights);
-    if (!candidate) break;
+    // A refit that tips the source beyond the prior is no better a pose, whatever it scores.
+    if (!candidate || !withinTilt(*candidate, evaluation)) break;
     const HypothesisScore score = evaluator.score(*candidate);
     if (!(score.score > best.score.score)) break;
     best.T_target_source = *candidate;
