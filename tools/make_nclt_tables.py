@@ -12,6 +12,9 @@ Writes into --out:
   relocalize_windows.tsv   each revisit with the keyframes of the seconds before it (up to WINDOW, none of
                            the first pass) joined into its frame by the odometry (lidar_pose): windows/Q.pcd
   relocalize_*_every6.tsv  every sixth query of each
+  revisits_submap.tsv, loops_submap.tsv   the same pairs with the earlier keyframe's submap as the target: the
+                       keyframes within SUBMAP of it (none of the last GAP before the source) joined in its
+                       frame under opti_pose_2, as LIO-SAM registers a loop candidate: submaps/A_B.pcd
   map_ten_times.pcd    with --larger-map: the first-pass map and 9 mirror images of it, 1-5 km away (a map
                        ten times larger whose look-alikes keep every length but are no rigid copy)
 The keyframe files are referenced where they are (their headers say WIDTH 0 HEIGHT 0; mac_registration reads
@@ -25,6 +28,10 @@ import numpy as np
 
 FIRST_PASS_END = 490  # keyframes before the run comes back (MANIFEST.md)
 WINDOW = 16  # keyframes of a window query: about 16 m of travel
+# Keyframes on each side of a loop candidate joined into its submap: LIO-SAM's historyKeyframeSearchNum
+# (25); the keyframes here are about 1 m apart.
+SUBMAP = 25
+GAP = 100  # a revisit or a loop comes back at least this many keyframes later (MANIFEST.md)
 
 
 def matrix_of(x, y, z, qx, qy, qz, qw):
@@ -64,7 +71,8 @@ def revisit_rows(nclt):
     return rows
 
 
-def loop_rows(nclt):
+def loop_pairs(nclt):
+    """(name, source keyframe, target keyframe, T_target_source) of each loop the mapping run closed."""
     rows = []
     with open(os.path.join(nclt, "loops.txt")) as f:
         for line in f:
@@ -73,7 +81,7 @@ def loop_rows(nclt):
                 continue
             a, b = int(v[0]), int(v[1])
             t_ab = matrix_of(*map(float, v[3:10]))
-            rows.append(("loop %d<-%d" % (a, b), keyframe(nclt, b), keyframe(nclt, a), row_major(t_ab)))
+            rows.append(("loop %d<-%d" % (a, b), b, a, row_major(t_ab)))
     return rows
 
 
@@ -151,6 +159,30 @@ def write_windows(nclt, out_dir, revisits):
     return rows
 
 
+def write_submaps(nclt, out_dir, pairs):
+    """Each (name, source id, target id, T) as the source keyframe against the target's submap, in the
+    target's frame: keyframes target-SUBMAP..target+SUBMAP older than source-GAP, under opti_pose_2."""
+    import open3d as o3d
+    optimised = poses(nclt, 26)
+    os.makedirs(os.path.join(out_dir, "submaps"), exist_ok=True)
+    rows = []
+    for name, source, target, t in pairs:
+        last = min(target + SUBMAP, source - GAP)
+        path = os.path.abspath(os.path.join(out_dir, "submaps", "%d_%d.pcd" % (target, last)))
+        if not os.path.exists(path):
+            inverse = np.linalg.inv(optimised[target])
+            points = []
+            for k in range(max(0, target - SUBMAP), last + 1):
+                pose = inverse @ optimised[k]
+                p = np.asarray(o3d.io.read_point_cloud(keyframe(nclt, k)).points)
+                points.append(p @ pose[:3, :3].T + pose[:3, 3])
+            cloud = o3d.geometry.PointCloud()
+            cloud.points = o3d.utility.Vector3dVector(np.concatenate(points))
+            o3d.io.write_point_cloud(path, cloud.voxel_down_sample(0.2))
+        rows.append((name + " submap", keyframe(nclt, source), path, t))
+    return rows
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--nclt", default=os.path.join("..", "shared", "data", "nclt"))
@@ -160,10 +192,12 @@ def main():
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     revisits = revisit_rows(args.nclt)
-    write_table(os.path.join(args.out, "revisits.tsv"),
-                [("rev %d->%d" % (q, e), keyframe(args.nclt, q), keyframe(args.nclt, e), t)
-                 for q, e, _, t in revisits])
-    write_table(os.path.join(args.out, "loops.tsv"), loop_rows(args.nclt))
+    pairs = {"revisits": [("rev %d->%d" % (q, e), q, e, t) for q, e, _, t in revisits],
+             "loops": loop_pairs(args.nclt)}
+    for kind, rows in pairs.items():
+        write_table(os.path.join(args.out, kind + ".tsv"),
+                    [(name, keyframe(args.nclt, s), keyframe(args.nclt, t), T) for name, s, t, T in rows])
+        write_table(os.path.join(args.out, kind + "_submap.tsv"), write_submaps(args.nclt, args.out, rows))
     map_path = os.path.abspath(os.path.join(args.out, "map_first_pass.pcd"))
     write_table(os.path.join(args.out, "map.tsv"),
                 [("map %d" % q, keyframe(args.nclt, q), map_path, t) for q, _, t, _ in revisits[::6]])
