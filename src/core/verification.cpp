@@ -92,6 +92,11 @@ constexpr double kMoveFree = 1.5, kMoveSlope = 4.0;
 //   20-40 matches spread over metres) rather than leaving it; the anchor was chosen by the same tool,
 //   doc/decisions/move-followed-by-correspondences.md.
 constexpr double kMoveFollowed = 0.8;
+// - ... or where the move settled with the source lying on the target: a sparse scan against an
+//   accumulated cloud (a submap, a map) gets a coarse consensus that the fine alignment carries several tau
+//   into a pose where at least 80 % of the source has a target surface within tau, keeping some of the
+//   correspondences' inliers.
+constexpr double kSettledOverlap = 0.8;
 // - a fine alignment still moving when its steps ran out slides along a surface or out of a wrong basin
 //   (half the wrong successes; 6 % of right poses on 3DMatch): 2 points.
 constexpr double kUnsettled = 2.0;
@@ -386,7 +391,10 @@ std::vector<EvidenceTerm> verificationEvidence(const VerificationSignals& s) {
     add("inlier_planarity", -kPlanaritySlope * std::max(0.0, std::log(kPlanarityFree / flatter)),
         reason.str());
   }
-  if (!std::isnan(s.fine_alignment_move) && !(s.fine_alignment_support >= kMoveFollowed)) {
+  const bool settled_on_target = s.fine_alignment_converged == 1.0 && s.aligned_overlap >= kSettledOverlap &&
+                                 s.fine_alignment_support > 0.0;
+  if (!std::isnan(s.fine_alignment_move) && !(s.fine_alignment_support >= kMoveFollowed) &&
+      !settled_on_target) {
     std::ostringstream reason;
     reason << std::fixed << std::setprecision(1) << "the fine alignment on the clouds moved the pose "
            << s.fine_alignment_move << " tau (RMS; a right pose: below " << kMoveFree << ")";

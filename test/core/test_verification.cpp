@@ -170,6 +170,32 @@ TEST(Evidence, AMoveTheCorrespondencesFollowIsNotAgainstThePose) {
   EXPECT_FALSE(has_move_term());
 }
 
+TEST(Evidence, AMoveThatSettlesOnTheTargetIsNotAgainstThePose) {
+  // A sparse scan's coarse pose against an accumulated cloud, carried 4 tau: where the fine alignment
+  // settled with 80 % of the source on the target and kept some of the correspondences' inliers, the move
+  // is not held against the pose; unsettled, on less of the target, or followed by none, it is.
+  VerificationSignals s;
+  s.rival_ratio = 0.1;
+  s.fine_alignment_move = 4.0;
+  s.fine_alignment_support = 0.4;
+  s.fine_alignment_converged = 1.0;
+  s.aligned_overlap = 0.8;
+  const auto has_move_term = [&s] {
+    const std::vector<EvidenceTerm> terms = verificationEvidence(s);
+    return std::any_of(terms.begin(), terms.end(),
+                       [](const EvidenceTerm& t) { return t.signal == "fine_alignment_move"; });
+  };
+  EXPECT_FALSE(has_move_term());
+  s.aligned_overlap = 0.7;
+  EXPECT_TRUE(has_move_term());
+  s.aligned_overlap = 0.95;
+  s.fine_alignment_converged = 0.0;
+  EXPECT_TRUE(has_move_term());
+  s.fine_alignment_converged = 1.0;
+  s.fine_alignment_support = 0.0;
+  EXPECT_TRUE(has_move_term());
+}
+
 TEST(Evidence, AConsensusFlatterThanItsSceneIsAgainstThePose) {
   VerificationSignals s;
   s.rival_ratio = 0.1;
