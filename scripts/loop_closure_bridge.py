@@ -4,7 +4,10 @@
 Keeps a keyframe each ~keyframe_distance metres of the stack's odometry (its scan, taken into the sensor's
 frame), and for each new one asks the registration node about the earlier keyframes within ~search_radius
 of it and older than ~min_time_gap (nearest first, ~max_candidates of them, the new scan described once).
-A verified candidate is a loop closure:
+Each candidate is asked twice: its keyframe alone, and its submap (the keyframes within ~submap_keyframes of
+it in the order they were kept, none younger than ~min_time_gap, joined in its frame by the odometry and
+thinned to one point per ~submap_voxel), as LIO-SAM closes a loop: a single sparse keyframe shares little
+with one 10-30 m away, its neighbourhood more. A verified candidate is a loop closure:
   - `loop_closure_detection` (std_msgs/Float64MultiArray [stamp of the new keyframe, stamp of the old one]),
     the shape of LIO-SAM's external loop input (remap it to lio_loop/loop_closure_detection): the stack
     then closes the loop between the two keyframes itself;
@@ -42,20 +45,38 @@ def pose_matrix(pose):
 
 
 class Keyframe:
-    def __init__(self, stamp, pose, cloud):
+    def __init__(self, stamp, pose, points, index=0):
         self.stamp = stamp  # rospy.Time
         self.pose = pose  # 4x4, the sensor in the odometry frame
-        self.cloud = cloud  # PointCloud2 in the sensor's frame
+        self.points = points  # N x 3, in the sensor's frame
+        self.index = index  # its place in the order keyframes were kept
 
 
-def in_sensor_frame(cloud, pose, frame):
-    """The points of `cloud` (odometry frame) in the sensor frame at `pose`, as an xyz PointCloud2."""
+def in_sensor_frame(cloud, pose):
+    """The points of `cloud` (odometry frame) in the sensor frame at `pose`, N x 3."""
     points = np.array(list(point_cloud2.read_points(cloud, ("x", "y", "z"), skip_nans=True)), dtype=np.float64)
     if points.size == 0:
         points = np.zeros((0, 3))
     inverse = np.linalg.inv(pose)
-    local = points @ inverse[:3, :3].T + inverse[:3, 3]
-    return point_cloud2.create_cloud_xyz32(Header(stamp=cloud.header.stamp, frame_id=frame), local.tolist())
+    return points @ inverse[:3, :3].T + inverse[:3, 3]
+
+
+def submap(keyframes, centre, current, submap_keyframes, min_time_gap, voxel):
+    """The keyframes within `submap_keyframes` of keyframes[centre] (old enough for a loop with `current`)
+    joined in its sensor frame, one point per `voxel` [m] cell; None where no neighbour joins it."""
+    centre_keyframe = keyframes[centre]
+    to_centre = np.linalg.inv(centre_keyframe.pose)
+    parts = []
+    for k in keyframes[max(0, centre - submap_keyframes):centre + submap_keyframes + 1]:
+        if (current.stamp - k.stamp).to_sec() < min_time_gap:
+            continue
+        relative = to_centre @ k.pose
+        parts.append(k.points @ relative[:3, :3].T + relative[:3, 3])
+    if len(parts) < 2:
+        return None
+    points = np.concatenate(parts)
+    _, first = np.unique(np.floor(points / voxel).astype(np.int64), axis=0, return_index=True)
+    return points[np.sort(first)]
 
 
 def candidates(keyframes, current, search_radius, min_time_gap, max_candidates):
@@ -77,12 +98,17 @@ class LoopClosureBridge:
         self.search_radius = rospy.get_param("~search_radius", 15.0)  # [m]
         self.min_time_gap = rospy.get_param("~min_time_gap", 30.0)  # [s]
         self.max_candidates = rospy.get_param("~max_candidates", 3)
+        self.submap_keyframes = rospy.get_param("~submap_keyframes", 25)  # each side; 0: keyframes alone
+        self.submap_voxel = rospy.get_param("~submap_voxel", 0.2)  # [m]
         self.sensor_frame = rospy.get_param("~sensor_frame", "keyframe")
         service = rospy.get_param("~service", "mac_registration/register_candidates")
         for name, value in (("keyframe_distance", self.keyframe_distance), ("search_radius", self.search_radius),
-                            ("min_time_gap", self.min_time_gap), ("max_candidates", self.max_candidates)):
+                            ("min_time_gap", self.min_time_gap), ("max_candidates", self.max_candidates),
+                            ("submap_voxel", self.submap_voxel)):
             if not value > 0:
                 raise ValueError("~%s must be > 0, got %r" % (name, value))
+        if not (isinstance(self.submap_keyframes, int) and self.submap_keyframes >= 0):
+            raise ValueError("~submap_keyframes must be an integer >= 0, got %r" % (self.submap_keyframes,))
         rospy.loginfo("loop_closure_bridge: waiting for %s", rospy.resolve_name(service))
         rospy.wait_for_service(service)
         self.register = rospy.ServiceProxy(service, RegisterCandidates)
@@ -100,15 +126,32 @@ class LoopClosureBridge:
         with self.lock:
             if self.keyframes and np.linalg.norm(pose[:3, 3] - self.keyframes[-1].pose[:3, 3]) < self.keyframe_distance:
                 return
-            current = Keyframe(cloud.header.stamp, pose, in_sensor_frame(cloud, pose, self.sensor_frame))
+            current = Keyframe(cloud.header.stamp, pose, in_sensor_frame(cloud, pose), len(self.keyframes))
             earlier = candidates(self.keyframes, current, self.search_radius, self.min_time_gap,
                                  self.max_candidates)
+            asked = self.targets(current, earlier)
             self.keyframes.append(current)
-        if earlier:
-            self.check(current, earlier)
+        if asked:
+            self.check(current, asked)
 
-    def check(self, current, earlier):
-        request = RegisterCandidatesRequest(source=current.cloud, targets=[k.cloud for k in earlier])
+    def targets(self, current, earlier):
+        """(keyframe, what, points) for each cloud to ask about: each candidate alone, then its submap."""
+        asked = []
+        for k in earlier:
+            asked.append((k, "keyframe", k.points))
+            if self.submap_keyframes > 0:
+                joined = submap(self.keyframes, k.index, current, self.submap_keyframes, self.min_time_gap,
+                                self.submap_voxel)
+                if joined is not None:
+                    asked.append((k, "submap", joined))
+        return asked
+
+    def cloud(self, stamp, points):
+        return point_cloud2.create_cloud_xyz32(Header(stamp=stamp, frame_id=self.sensor_frame), points.tolist())
+
+    def check(self, current, asked):
+        request = RegisterCandidatesRequest(source=self.cloud(current.stamp, current.points),
+                                            targets=[self.cloud(k.stamp, p) for k, _, p in asked])
         try:
             response = self.register(request)
         except rospy.ServiceException as e:
@@ -116,17 +159,17 @@ class LoopClosureBridge:
             return
         if not response.results or not response.results[0].success:
             reason = response.results[0].message if response.results else response.message
-            rospy.loginfo("loop_closure_bridge: t=%.2f s, %d candidates, none verified: %s",
-                          current.stamp.to_sec(), len(earlier), reason)
+            rospy.loginfo("loop_closure_bridge: t=%.2f s, %d candidate clouds, none verified: %s",
+                          current.stamp.to_sec(), len(asked), reason)
             return
         best = response.results[0]
-        old = earlier[response.candidates[0]]
+        old, what, _ = asked[response.candidates[0]]
         self.detection_pub.publish(Float64MultiArray(data=[current.stamp.to_sec(), old.stamp.to_sec()]))
         self.loop_pub.publish(best)
         t = best.transform.translation
-        rospy.loginfo("loop_closure_bridge: loop t=%.2f s -> t=%.2f s verified (confidence %.2f): "
-                      "T_old_new translation (%.2f, %.2f, %.2f) m, %.1f m apart by odometry",
-                      current.stamp.to_sec(), old.stamp.to_sec(), best.confidence, t.x, t.y, t.z,
+        rospy.loginfo("loop_closure_bridge: loop t=%.2f s -> t=%.2f s verified against its %s (confidence "
+                      "%.2f): T_old_new translation (%.2f, %.2f, %.2f) m, %.1f m apart by odometry",
+                      current.stamp.to_sec(), old.stamp.to_sec(), what, best.confidence, t.x, t.y, t.z,
                       math.dist(current.pose[:3, 3], old.pose[:3, 3]))
 
 
