@@ -7,7 +7,9 @@ of it and older than ~min_time_gap (nearest first, ~max_candidates of them, the 
 Each candidate is asked twice: its keyframe alone, and its submap (the keyframes within ~submap_keyframes of
 it in the order they were kept, none younger than ~min_time_gap, joined in its frame by the odometry and
 thinned to one point per ~submap_voxel), as LIO-SAM closes a loop: a single sparse keyframe shares little
-with one 10-30 m away, its neighbourhood more. A verified candidate is a loop closure:
+with one 10-30 m away, its neighbourhood more. The checks run on a thread of their own, one at a time: a
+keyframe still waiting when a newer one has candidates is not checked (logged). A verified candidate is a
+loop closure:
   - `loop_closure_detection` (std_msgs/Float64MultiArray [stamp of the new keyframe, stamp of the old one]),
     the shape of LIO-SAM's external loop input (remap it to lio_loop/loop_closure_detection): the stack
     then closes the loop between the two keyframes itself;
@@ -92,6 +94,32 @@ def candidates(keyframes, current, search_radius, min_time_gap, max_candidates):
     return [k for _, k in near[:max_candidates]]
 
 
+class NewestOnly:
+    """A slot for one waiting item: a newer one replaces it (counted) rather than queueing behind it."""
+
+    def __init__(self):
+        self.item = None
+        self.replaced = 0
+        self.changed = threading.Condition()
+
+    def put(self, item):
+        """Leaves `item` waiting; returns the one it replaced, or None."""
+        with self.changed:
+            older, self.item = self.item, item
+            if older is not None:
+                self.replaced += 1
+            self.changed.notify()
+            return older
+
+    def take(self, timeout):
+        """The waiting item, or None after `timeout` [s] without one."""
+        with self.changed:
+            if self.item is None:
+                self.changed.wait(timeout)
+            item, self.item = self.item, None
+            return item
+
+
 class LoopClosureBridge:
     def __init__(self):
         self.keyframe_distance = rospy.get_param("~keyframe_distance", 1.0)  # [m]
@@ -114,6 +142,9 @@ class LoopClosureBridge:
         self.register = rospy.ServiceProxy(service, RegisterCandidates)
         self.keyframes = []
         self.lock = threading.Lock()
+        # The newest keyframe with candidates, for the worker: a check takes up to a second with submaps.
+        self.pending = NewestOnly()
+        threading.Thread(target=self.work, daemon=True).start()
         self.detection_pub = rospy.Publisher("loop_closure_detection", Float64MultiArray, queue_size=10)
         self.loop_pub = rospy.Publisher("~loop", RegistrationResult, queue_size=10)
         cloud = message_filters.Subscriber("cloud", PointCloud2)
@@ -129,18 +160,30 @@ class LoopClosureBridge:
             current = Keyframe(cloud.header.stamp, pose, in_sensor_frame(cloud, pose), len(self.keyframes))
             earlier = candidates(self.keyframes, current, self.search_radius, self.min_time_gap,
                                  self.max_candidates)
-            asked = self.targets(current, earlier)
             self.keyframes.append(current)
-        if asked:
-            self.check(current, asked)
+        if earlier:
+            older = self.pending.put((current, earlier))
+            if older is not None:
+                rospy.loginfo("loop_closure_bridge: keyframe t=%.2f s not checked, a newer one replaced it while a "
+                              "check ran (%d so far)", older[0].stamp.to_sec(), self.pending.replaced)
 
-    def targets(self, current, earlier):
+    def work(self):
+        while not rospy.is_shutdown():
+            waiting = self.pending.take(0.5)
+            if waiting is None:
+                continue
+            current, earlier = waiting
+            with self.lock:
+                keyframes = list(self.keyframes)
+            self.check(current, self.targets(keyframes, current, earlier))
+
+    def targets(self, keyframes, current, earlier):
         """(keyframe, what, points) for each cloud to ask about: each candidate alone, then its submap."""
         asked = []
         for k in earlier:
             asked.append((k, "keyframe", k.points))
             if self.submap_keyframes > 0:
-                joined = submap(self.keyframes, k.index, current, self.submap_keyframes, self.min_time_gap,
+                joined = submap(keyframes, k.index, current, self.submap_keyframes, self.min_time_gap,
                                 self.submap_voxel)
                 if joined is not None:
                     asked.append((k, "submap", joined))

@@ -20,7 +20,7 @@ from std_msgs.msg import Float64MultiArray, Header
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
 from demo_monitor import errors  # noqa: E402
-from loop_closure_bridge import candidates, Keyframe, submap  # noqa: E402
+from loop_closure_bridge import candidates, Keyframe, NewestOnly, submap  # noqa: E402
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "data")
 
@@ -75,6 +75,14 @@ class LoopClosureTest(unittest.TestCase):
         joined = submap(kf, 2, current, 1, 75.0, 0.2)
         np.testing.assert_allclose(joined, [[1.1, 2.1, 0.1], [1.1, 0.1, 0.1]], atol=1e-9)
         self.assertIsNone(submap(kf, 5, current, 1, 75.0, 0.2))  # its one neighbour too young, itself too
+
+    def test_a_newer_keyframe_replaces_one_still_waiting(self):
+        slot = NewestOnly()
+        self.assertIsNone(slot.put("first"))
+        self.assertEqual(slot.put("second"), "first")
+        self.assertEqual(slot.replaced, 1)
+        self.assertEqual(slot.take(0.01), "second")
+        self.assertIsNone(slot.take(0.01))
 
     def test_a_revisit_is_reported_as_a_loop(self):
         lock = threading.Lock()
