@@ -81,6 +81,11 @@ def submap(keyframes, centre, current, submap_keyframes, min_time_gap, voxel):
     return points[np.sort(first)]
 
 
+def far_enough(keyframes, pose, keyframe_distance):
+    """Whether a scan at `pose` is a new keyframe: the first, or `keyframe_distance` [m] from the last one."""
+    return not keyframes or np.linalg.norm(pose[:3, 3] - keyframes[-1].pose[:3, 3]) >= keyframe_distance
+
+
 def candidates(keyframes, current, search_radius, min_time_gap, max_candidates):
     """The earlier keyframes a loop may close with: within the radius, old enough, nearest first."""
     near = []
@@ -155,7 +160,7 @@ class LoopClosureBridge:
     def on_scan(self, cloud, odometry):
         pose = pose_matrix(odometry.pose.pose)
         with self.lock:
-            if self.keyframes and np.linalg.norm(pose[:3, 3] - self.keyframes[-1].pose[:3, 3]) < self.keyframe_distance:
+            if not far_enough(self.keyframes, pose, self.keyframe_distance):
                 return
             current = Keyframe(cloud.header.stamp, pose, in_sensor_frame(cloud, pose), len(self.keyframes))
             earlier = candidates(self.keyframes, current, self.search_radius, self.min_time_gap,
