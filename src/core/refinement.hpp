@@ -17,9 +17,9 @@ struct RefinementOutcome {
 };
 
 // Iteratively reweighted SVD on the inliers of the current transform, weights 1 / (1 + (r / tau)^2).
-// Stops when a round does not raise the score, or would tip the source beyond evaluation.max_tilt_deg, and
-// returns the best transform seen, never a worse one than `initial`. A raised `stop` ends it after the
-// current round.
+// Stops when a round does not raise the score, or would tip an `initial` within evaluation.max_tilt_deg
+// beyond it, and returns the best transform seen, never a worse one than `initial`. A raised `stop` ends
+// it after the current round.
 RefinementOutcome refineTransform(const Eigen::Isometry3d& initial, const HypothesisScore& initial_score,
                                   const CorrespondenceSet& correspondences,
                                   const HypothesisEvaluator& evaluator, const EvaluationParams& evaluation,

@@ -146,7 +146,8 @@ TEST(RefineTransformAlone, WorseRefitIsRejected) {
 
 // The tilt prior holds in the refinement too: correspondences that fit a pose tipped 50 deg, all inliers of
 // an upright-enough start at 40 deg (points within 0.3 m: 10 deg moves them 5 cm, under tau). Without the
-// prior the refit reaches 50 deg; with a 45 deg prior it stays where it started.
+// prior the refit reaches 50 deg; with a 45 deg prior it stays where it started. A start already tipped (a
+// rival judged beside the answer) refines as without the prior.
 TEST(RefineTransformAlone, StopsAtTheTiltPrior) {
   const Eigen::Isometry3d tipped(Eigen::AngleAxisd(50.0 * kDegree, Eigen::Vector3d::UnitX()));
   const Eigen::Isometry3d start(Eigen::AngleAxisd(40.0 * kDegree, Eigen::Vector3d::UnitX()));
@@ -173,6 +174,10 @@ TEST(RefineTransformAlone, StopsAtTheTiltPrior) {
     } else {
       EXPECT_EQ(out.improvements, 0);
       EXPECT_TRUE(out.T_target_source.matrix() == start.matrix());
+      const Eigen::Isometry3d rival(Eigen::AngleAxisd(60.0 * kDegree, Eigen::Vector3d::UnitX()));
+      const RefinementOutcome tipped_out =
+          refineTransform(rival, evaluator.score(rival), c, evaluator, evaluation, {});
+      EXPECT_LT(rotationError(tipped_out.T_target_source, tipped), 0.1 * kDegree);
     }
   }
 }
