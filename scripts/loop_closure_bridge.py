@@ -149,13 +149,13 @@ class LoopClosureBridge:
         self.lock = threading.Lock()
         # The newest keyframe with candidates, for the worker: a check takes up to a second with submaps.
         self.pending = NewestOnly()
-        threading.Thread(target=self.work, daemon=True).start()
         self.detection_pub = rospy.Publisher("loop_closure_detection", Float64MultiArray, queue_size=10)
         self.loop_pub = rospy.Publisher("~loop", RegistrationResult, queue_size=10)
         cloud = message_filters.Subscriber("cloud", PointCloud2)
         odometry = message_filters.Subscriber("odometry", Odometry)
         self.sync = message_filters.ApproximateTimeSynchronizer([cloud, odometry], 10, 0.05)
         self.sync.registerCallback(self.on_scan)
+        threading.Thread(target=self.work, daemon=True).start()
 
     def on_scan(self, cloud, odometry):
         pose = pose_matrix(odometry.pose.pose)
