@@ -150,6 +150,13 @@ TEST(Evidence, TheFineAlignmentsMoveAndUnsettledStepsSpeakAgainstThePose) {
   EXPECT_LT(confidenceOf(terms), 0.5);
 }
 
+// Whether the fine alignment's move counts against the pose of these signals.
+bool hasMoveTerm(const VerificationSignals& s) {
+  const std::vector<EvidenceTerm> terms = verificationEvidence(s);
+  return std::any_of(terms.begin(), terms.end(),
+                     [](const EvidenceTerm& t) { return t.signal == "fine_alignment_move"; });
+}
+
 TEST(Evidence, AMoveTheCorrespondencesFollowIsNotAgainstThePose) {
   // A coarse pose polished far: where the fine pose keeps at least 0.8 as many of the correspondences'
   // inliers, the move is not held against it; where it keeps half, 4 points per tau beyond 1.5 are.
@@ -157,17 +164,12 @@ TEST(Evidence, AMoveTheCorrespondencesFollowIsNotAgainstThePose) {
   s.rival_ratio = 0.1;
   s.fine_alignment_move = 4.0;
   s.fine_alignment_converged = 1.0;
-  const auto has_move_term = [&s] {
-    const std::vector<EvidenceTerm> terms = verificationEvidence(s);
-    return std::any_of(terms.begin(), terms.end(),
-                       [](const EvidenceTerm& t) { return t.signal == "fine_alignment_move"; });
-  };
   s.fine_alignment_support = 0.5;
-  EXPECT_TRUE(has_move_term());
+  EXPECT_TRUE(hasMoveTerm(s));
   s.fine_alignment_support = 0.8;
-  EXPECT_FALSE(has_move_term());
+  EXPECT_FALSE(hasMoveTerm(s));
   s.fine_alignment_support = 1.2;
-  EXPECT_FALSE(has_move_term());
+  EXPECT_FALSE(hasMoveTerm(s));
 }
 
 TEST(Evidence, AMoveThatSettlesOnTheTargetIsNotAgainstThePose) {
@@ -180,20 +182,15 @@ TEST(Evidence, AMoveThatSettlesOnTheTargetIsNotAgainstThePose) {
   s.fine_alignment_support = 0.4;
   s.fine_alignment_converged = 1.0;
   s.aligned_overlap = 0.8;
-  const auto has_move_term = [&s] {
-    const std::vector<EvidenceTerm> terms = verificationEvidence(s);
-    return std::any_of(terms.begin(), terms.end(),
-                       [](const EvidenceTerm& t) { return t.signal == "fine_alignment_move"; });
-  };
-  EXPECT_FALSE(has_move_term());
+  EXPECT_FALSE(hasMoveTerm(s));
   s.aligned_overlap = 0.7;
-  EXPECT_TRUE(has_move_term());
+  EXPECT_TRUE(hasMoveTerm(s));
   s.aligned_overlap = 0.95;
   s.fine_alignment_converged = 0.0;
-  EXPECT_TRUE(has_move_term());
+  EXPECT_TRUE(hasMoveTerm(s));
   s.fine_alignment_converged = 1.0;
   s.fine_alignment_support = 0.0;
-  EXPECT_TRUE(has_move_term());
+  EXPECT_TRUE(hasMoveTerm(s));
 }
 
 TEST(Evidence, AConsensusFlatterThanItsSceneIsAgainstThePose) {
