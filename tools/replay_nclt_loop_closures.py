@@ -52,7 +52,7 @@ def write_points(path, points):
 
 
 def questions(nclt, out_dir):
-    """The table's rows: (name, source file, target file, T truth), and each row's keyframe."""
+    """The table's rows (name, source file, target file, T truth), the kept keyframes' ids and the truth."""
     odometry, truth, times = poses(nclt, 5), poses(nclt, 26), stamps(nclt)
     os.makedirs(os.path.join(out_dir, "submaps"), exist_ok=True)
     kept, ids, rows = [], [], []
@@ -77,7 +77,7 @@ def questions(nclt, out_dir):
             rows.append(("kf %d<-%d submap" % (old_id, index), keyframe(nclt, index), written[key], t))
         kept.append(current)
         ids.append(index)
-    return rows, kept, ids, truth
+    return rows, ids, truth
 
 
 def revisiting(ids, truth):
@@ -127,7 +127,7 @@ def main():
     parser.add_argument("--config", default=os.path.join("config", "outdoor_lidar.yaml"))
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    rows, _, ids, truth = questions(args.nclt, args.out)
+    rows, ids, truth = questions(args.nclt, args.out)
     table = os.path.join(args.out, "questions.tsv")
     write_table(table, rows)
     answers = os.path.join(args.out, "answers.csv")
